@@ -1,0 +1,1 @@
+//! Hand-eye self-calibration: ORB features, matching, GMS, relative pose, AX=XB solvers, refinement.

@@ -1,0 +1,1 @@
+//! Task logic over the message stream: script stage, trajectories, planners, perception, hang/remove task machines, safety gates.

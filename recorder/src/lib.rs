@@ -1,0 +1,1 @@
+//! MCAP writer, the deterministic stage runner and the live runtime.

@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# Creates the throw-away Python venv of pinned reference tools used by tests and benchmarks
+# (DESIGN.md s8): OpenCV (hand-eye, ORB, SIFT), the Rerun viewer/CLI, and two independent
+# ROS 2 MCAP decoders. Idempotent: re-running only installs what is missing.
+# Usage: scripts/venv.sh [DIR]   (default .venv-ref at the repository root)
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+venv=${1:-$root/.venv-ref}
+python3 -m venv "$venv"
+"$venv/bin/python" -m pip install --quiet --disable-pip-version-check \
+  "opencv-contrib-python-headless>=4.10,<5" \
+  "numpy<3" \
+  "rerun-sdk==0.36.3" \
+  "mcap==1.*" \
+  "mcap-ros2-support==0.5.*" \
+  "rosbags==0.10.*"
+echo "$venv"

@@ -1,0 +1,1 @@
+//! Deterministic substation world implementing the driver traits of `msgs` (the default robot).

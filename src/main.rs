@@ -1,0 +1,5 @@
+//! `rodlog`: the command line of the substation grounding-rod robot.
+
+fn main() {
+    println!("rodlog");
+}
