@@ -1,1 +1,3 @@
 //! Hand-eye self-calibration: ORB features, matching, GMS, relative pose, AX=XB solvers, refinement.
+
+pub mod handeye;
