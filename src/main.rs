@@ -1,5 +1,60 @@
-//! `rodlog`: the command line of the substation grounding-rod robot.
+//! `rodlog`: the command line of the substation grounding-rod robot (DESIGN.md section 4).
+//!
+//! `main` only parses and dispatches; each subcommand lives in its own module under `cmd/`.
 
-fn main() {
-    println!("rodlog");
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+mod cmd;
+
+/// Substation grounding-rod robot: log-centric hand-eye self-calibration and tasks.
+#[derive(Debug, Parser)]
+#[command(name = "rodlog", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Summarise a recording: channels, time span, chunks, compression, metadata, recovery.
+    Info(cmd::info::InfoArgs),
+    /// Run a scenario through the pipeline and record it (MCAP).
+    Record(cmd::record::RecordArgs),
+    /// Replay a recording through the current pipeline: check, what-if.
+    Replay(cmd::replay::ReplayArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Info(args) => cmd::info::run(&args),
+        Command::Record(args) => cmd::record::run(&args),
+        Command::Replay(args) => cmd::replay::run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("rodlog: error: {}", error_chain(&e));
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// The error and its causes joined by ": ", skipping a cause whose text the message already
+/// holds (library errors often print their source in their own message).
+fn error_chain(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in e.chain() {
+        let s = cause.to_string();
+        if text.contains(&s) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&s);
+    }
+    text
 }

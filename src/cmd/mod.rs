@@ -1,0 +1,5 @@
+//! The subcommands, one module each.
+
+pub mod info;
+pub mod record;
+pub mod replay;

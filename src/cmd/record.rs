@@ -1,0 +1,206 @@
+//! `rodlog record --scenario NAME|FILE [--seed N] [--set k=v]... [--out rec.mcap] [--realtime]
+//! [--threads N]`: run a scenario in the (test) world through the pipeline and record it.
+//!
+//! Also the pipeline of stages shared with `rodlog replay` ([`pipeline`]): replay must run the
+//! very same stages, built from the same parameters, to reproduce a recording.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context as _, bail};
+use msgs::Stage;
+use recorder::scenario::{Params, SCENARIO_RECORD};
+use recorder::session::SCENARIO_ATTACHMENT;
+use recorder::stages::{ArmExerciser, JointLimitMonitor};
+use recorder::test_world::{TestWorld, TestWorldConfig};
+use recorder::{
+    ChunkCompression, MetadataRecord, RecordOptions, RecordingHeader, Scenario, SinkOptions,
+};
+use replay::McapReader;
+use robot::{RobotModel, RobotStateConfig, RobotStateStage};
+
+/// Parameter choosing the world; only `test_world` exists until the simulator lands.
+pub const WORLD_PARAM: &str = "world";
+
+/// Arguments of `rodlog record`.
+#[derive(Debug, clap::Args)]
+pub struct RecordArgs {
+    /// Scenario name (recordings/scenarios/NAME.toml), scenario file, or a recording (.mcap):
+    /// its scenario, seed and parameters (closed-loop what-if with --set).
+    #[arg(long)]
+    pub scenario: String,
+    /// Override the scenario's seed.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Override the scenario's duration, seconds of robot time.
+    #[arg(long)]
+    pub duration: Option<f64>,
+    /// Override a parameter, `stage.key=value` (repeatable).
+    #[arg(long = "set", value_name = "K=V")]
+    pub set: Vec<String>,
+    /// Output file (default: NAME.mcap in the current directory).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Pace by the wall clock (live runtime); without it the run is as fast as possible with
+    /// identical output.
+    #[arg(long)]
+    pub realtime: bool,
+    /// Worker threads stages may use (rayon pool size); output is identical for any N.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Chunk compression: lz4 (default), zstd or none.
+    #[arg(long, default_value = "lz4")]
+    pub compression: String,
+}
+
+/// Directories searched for scenario names: `./recordings/scenarios`, then the source tree's.
+pub fn scenario_dirs() -> Vec<PathBuf> {
+    vec![
+        PathBuf::from("recordings/scenarios"),
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("recordings/scenarios"),
+    ]
+}
+
+/// The stages of the current pipeline, configured from `params`, in rank order:
+/// `robot_state` (robot crate), `arm_exerciser`, `joint_limit_monitor` (recorder crate).
+///
+/// # Errors
+/// A stage's configuration error.
+pub fn pipeline(params: &Params) -> anyhow::Result<Vec<Box<dyn Stage + Send>>> {
+    let latency_ms = params.f64_or("robot_state.latency_ms", 1.0)?;
+    let robot_state = RobotStateStage::new(
+        RobotModel::nominal(),
+        RobotStateConfig {
+            latency: msgs::RobotDuration::from_secs_f64(latency_ms * 1e-3)
+                .context("robot_state.latency_ms")?,
+            publish_robot_description: params
+                .bool_or("robot_state.publish_robot_description", true)?,
+        },
+    );
+    Ok(vec![
+        Box::new(robot_state),
+        Box::new(ArmExerciser::from_params(params)?),
+        Box::new(JointLimitMonitor::from_params(params)?),
+    ])
+}
+
+/// Parses `--compression`.
+///
+/// # Errors
+/// Unknown names.
+pub fn compression(name: &str) -> anyhow::Result<ChunkCompression> {
+    Ok(match name {
+        "lz4" => ChunkCompression::Lz4,
+        "zstd" => ChunkCompression::Zstd,
+        "none" => ChunkCompression::None,
+        other => bail!("unknown --compression {other:?} (lz4, zstd or none)"),
+    })
+}
+
+/// The scenario of a recording: its `scenario` metadata record and attached scenario file.
+///
+/// # Errors
+/// Unreadable files, a recording without a `scenario` record.
+pub fn scenario_of_recording(path: &Path) -> anyhow::Result<Scenario> {
+    let mut reader =
+        McapReader::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let Some(meta) = reader.metadata_named(SCENARIO_RECORD).cloned() else {
+        bail!("{} has no scenario metadata record", path.display());
+    };
+    let attachment = reader
+        .attachments()
+        .iter()
+        .find(|a| a.name == SCENARIO_ATTACHMENT)
+        .cloned();
+    let text = match attachment {
+        Some(a) => Some(String::from_utf8(reader.read_attachment(&a)?)?),
+        None => None,
+    };
+    Ok(Scenario::from_metadata(
+        &meta.entries,
+        text.as_deref(),
+        &path.display().to_string(),
+    )?)
+}
+
+/// Runs `rodlog record`.
+pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
+    let from_recording = Path::new(&args.scenario);
+    let mut scenario = if args.scenario.ends_with(".mcap") && from_recording.is_file() {
+        scenario_of_recording(from_recording)?
+    } else {
+        Scenario::find(&args.scenario, &scenario_dirs())?
+    };
+    if let Some(seed) = args.seed {
+        scenario.seed = seed;
+    }
+    if let Some(d) = args.duration {
+        scenario.duration = msgs::RobotDuration::from_secs_f64(d).context("--duration")?;
+    }
+    for s in &args.set {
+        scenario.params.set_from_arg(s)?;
+    }
+    let world_name = scenario.params.str_or(WORLD_PARAM, "test_world")?;
+    if world_name != "test_world" {
+        bail!("world {world_name:?} is not available (only test_world until the simulator lands)");
+    }
+    let world = TestWorld::new(TestWorldConfig::from_params(
+        scenario.seed,
+        &scenario.params,
+    )?);
+    let stages = pipeline(&scenario.params)?;
+    let robot_info = MetadataRecord::new("robot_info")
+        .with("robot", "AUBO i10 arm + lift + mobile base")
+        .with("model", "nominal DH (DESIGN.md section 6)")
+        .with("world", &world_name)
+        .with("joints", msgs::frames::JOINT_NAMES.join(","));
+    let mut header = RecordingHeader::for_scenario(&scenario, robot_info);
+    header.attachments.push((
+        "robot.urdf".to_owned(),
+        "application/xml".to_owned(),
+        robot::robot_urdf(&RobotModel::nominal()).into_bytes(),
+    ));
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("{}.mcap", scenario.name)));
+    let options = RecordOptions {
+        out: out.clone(),
+        sink: SinkOptions {
+            compression: compression(&args.compression)?,
+            ..SinkOptions::default()
+        },
+        realtime: args.realtime,
+        threads: args.threads,
+    };
+    let summary = recorder::record(world, stages, &header, scenario.duration, &options)
+        .with_context(|| format!("recording scenario {} to {}", scenario.name, out.display()))?;
+    println!(
+        "recorded {} messages, {} of robot time, to {}{}",
+        summary.messages,
+        summary.end,
+        out.display(),
+        if summary.interrupted {
+            " (interrupted)"
+        } else {
+            ""
+        }
+    );
+    println!(
+        "  world {} msgs, /clock {}, stage outputs {}, commands {} ({} rejected)",
+        summary.scheduler.world_messages,
+        summary.scheduler.clock_messages,
+        summary.scheduler.stage_outputs,
+        summary.scheduler.commands,
+        summary.scheduler.rejected_commands
+    );
+    for s in &summary.stages {
+        println!(
+            "  stage {:<22} inputs {:>7}  errors {}{}",
+            s.name,
+            s.inputs,
+            s.errors,
+            if s.disabled { " (stopped)" } else { "" }
+        );
+    }
+    Ok(())
+}
