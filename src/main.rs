@@ -24,6 +24,9 @@ enum Command {
     Record(cmd::record::RecordArgs),
     /// Replay a recording through the current pipeline: check, what-if.
     Replay(cmd::replay::ReplayArgs),
+    /// Calibration tools: hand-eye from pose files.
+    #[command(subcommand)]
+    Calib(cmd::calib::CalibCommand),
 }
 
 fn main() -> ExitCode {
@@ -32,6 +35,7 @@ fn main() -> ExitCode {
         Command::Info(args) => cmd::info::run(&args),
         Command::Record(args) => cmd::record::run(&args),
         Command::Replay(args) => cmd::replay::run(&args),
+        Command::Calib(command) => cmd::calib::run(&command),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,5 +1,6 @@
 //! The subcommands, one module each.
 
+pub mod calib;
 pub mod info;
 pub mod record;
 pub mod replay;
