@@ -1,3 +1,4 @@
 //! Hand-eye self-calibration: ORB features, matching, GMS, relative pose, AX=XB solvers, refinement.
 
 pub mod handeye;
+pub mod relpose;

@@ -1,0 +1,993 @@
+//! Essential matrix from normalised correspondences (RGB only): 5-point RANSAC, cheirality,
+//! Sampson refinement; translation up to scale (`|t| = 1`).
+//!
+//! With `(R, t) = a_from_b` and homogeneous normalised points, `x_a^T E x_b = 0` for
+//! `E = [t]x R` (Longuet-Higgins 1981; Hartley & Zisserman 2004, sec. 9.6, with camera `b` as
+//! `[I | 0]`).
+//!
+//! **Minimal solver** ([`essential_five_point`]): Stewénius, Engels & Nistér, "Recent
+//! developments on direct relative orientation", ISPRS J. 60 (2006), sec. 3 (the Gröbner-basis
+//! form of Nistér's 5-point algorithm, PAMI 2004). Five correspondences give a 4-dimensional
+//! null space `E = x X + y Y + z Z + W`; the 10 cubic constraints
+//! `det E = 0` and `2 E E^T E - tr(E E^T) E = 0` (Nistér 2004) are written over the 20
+//! monomials `x^3 .. 1`, Gauss-Jordan eliminated on the 10 cubic monomials, and the 10x10
+//! action matrix of multiplication by `x` on the quotient basis
+//! `[x^2, xy, y^2, xz, yz, z^2, x, y, z, 1]` has the solutions as eigenvectors (up to 10 real
+//! roots).
+//!
+//! **Robust estimation** ([`estimate_essential_ransac`]): RANSAC/MSAC on 5-point samples, each
+//! candidate scored with the Sampson distance ([`super::refine::sampson_distance`]); optionally
+//! the normalised 8-point algorithm on the inliers (Hartley 1997, [`essential_eight_point`])
+//! when it lowers the Sampson cost; decomposition `E = U diag(1,1,0) V^T` into
+//! `R = U W V^T` or `U W^T V^T`, `t = +-u_3` (H&Z result 9.19) with the candidate chosen by
+//! cheirality (most inliers triangulated in front of both cameras,
+//! [`super::triangulate::triangulate_midpoint`]); then the Levenberg-Marquardt Sampson
+//! refinement on `SO(3) x S^2` ([`super::refine::refine_essential`]) and inlier re-selection.
+//!
+//! **Degenerate cases.** Fewer than 5 pairs; coincident or collinear image points; a pure
+//! rotation (zero baseline): then every `t` satisfies the epipolar constraint, so the
+//! estimate would be garbage (the 5-point system then has a continuum of solutions). It is
+//! detected by model selection (the idea of Torr's GRIC, 1998): a second RANSAC fits the
+//! rotation-only model `f_a = R f_b` (unit bearing vectors, 2-point Kabsch samples, angular
+//! residual) and when it explains at least [`EssentialParams::pure_rotation_ratio`] times as
+//! many correspondences as the essential matrix, or the median rotation-compensated parallax
+//! of the final inliers is below [`EssentialParams::pure_rotation_threshold_rad`], or the
+//! refined direction's standard deviation exceeds [`EssentialParams::max_direction_std_rad`]
+//! (near-zero baselines), a [`RelPoseError::Degenerate`] is returned.
+
+use nalgebra::{
+    Isometry3, Matrix3, Point2, Point3, Rotation3, SMatrix, SVector, Translation3, UnitQuaternion,
+    Vector3,
+};
+
+use super::ransac::{RansacConfig, ransac, required_iterations};
+use super::refine::{
+    MAX_REFINE_ROUNDS, RefineParams, RefineReport, refine_essential, sampson_distance,
+};
+use super::triangulate::{triangulate_dlt, triangulate_midpoint};
+use super::{RelPoseError, check_lengths, skew};
+
+/// Minimal sample size of the essential matrix.
+pub const ESSENTIAL_SAMPLE_SIZE: usize = 5;
+/// Relative bound on the smallest eigenvalue of the 2x2 image-point covariance below which the
+/// points count as collinear.
+pub const COLLINEAR_IMAGE_RATIO: f64 = 1e-10;
+
+/// Parameters of [`estimate_essential_ransac`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EssentialParams {
+    /// Inlier threshold on the absolute Sampson distance, normalised image units; default
+    /// `1 / 1745` (1 px at the wrist camera's focal length).
+    pub inlier_threshold: f64,
+    /// Stopping rule; default [`RansacConfig::default`] (p = 0.999, 50..5000 iterations).
+    pub ransac: RansacConfig,
+    /// Minimum inliers (after cheirality) to accept a motion; default 15.
+    pub min_inliers: usize,
+    /// Pure-rotation test: inlier threshold of the rotation-only model (angle between `f_a`
+    /// and `R f_b`), radians; default `2 / 1745` (2 px at the wrist camera's focal length).
+    pub pure_rotation_threshold_rad: f64,
+    /// Pure-rotation test: refuse when the rotation-only model has at least this fraction of
+    /// the essential matrix's inliers; default 0.5 (on the wrist camera's 0.3-0.6 m scenes with
+    /// 0.5 px noise this refuses baselines below ~4 mm, whose translation directions came out
+    /// 3-140 deg wrong, and keeps 5 mm and more).
+    pub pure_rotation_ratio: f64,
+    /// Refuse when the refined translation direction's standard deviation (worst axis,
+    /// [`RefineReport::translation_std`]) exceeds this, radians; default 5 deg. Only checked
+    /// when [`EssentialParams::refine`] is on.
+    pub max_direction_std_rad: f64,
+    /// Try the normalised 8-point algorithm on the RANSAC inliers and keep it when its Sampson
+    /// cost is lower; default false (the refinement reaches the same optimum).
+    pub eight_point_polish: bool,
+    /// Run the Sampson Levenberg-Marquardt refinement; default true.
+    pub refine: bool,
+    /// Stopping rules of the refinement; default [`RefineParams::default`].
+    pub refine_params: RefineParams,
+    /// Triangulate the final inliers (DLT) into [`EssentialEstimate::points_in_a`]; default
+    /// false.
+    pub triangulate: bool,
+}
+
+impl Default for EssentialParams {
+    fn default() -> Self {
+        Self {
+            inlier_threshold: 1.0 / 1745.0,
+            ransac: RansacConfig::default(),
+            min_inliers: 15,
+            pure_rotation_threshold_rad: 2.0 / 1745.0,
+            pure_rotation_ratio: 0.5,
+            max_direction_std_rad: 5f64.to_radians(),
+            eight_point_polish: false,
+            refine: true,
+            refine_params: RefineParams::default(),
+            triangulate: false,
+        }
+    }
+}
+
+/// Result of [`estimate_essential_ransac`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct EssentialEstimate {
+    /// The motion `a_from_b` with `|t| = 1` (metric scale unknown).
+    pub a_from_b: Isometry3<f64>,
+    /// `E = [t]x R` of `a_from_b` (Frobenius norm `sqrt 2`).
+    pub essential: Matrix3<f64>,
+    /// Inlier flags: Sampson distance within the threshold and in front of both cameras.
+    pub inliers: Vec<bool>,
+    /// Number of inliers.
+    pub inlier_count: usize,
+    /// Points (among the RANSAC inliers) in front of both cameras for the four decompositions
+    /// `(R1, t), (R1, -t), (R2, t), (R2, -t)` of the RANSAC essential matrix.
+    pub cheirality_counts: [usize; 4],
+    /// Index of the decomposition chosen (most points in front).
+    pub chosen_decomposition: usize,
+    /// Root mean square Sampson distance over the inliers, normalised units.
+    pub rms_sampson: f64,
+    /// Median rotation-compensated parallax over the inliers (angle between `f_a` and `R f_b`
+    /// for the best rotation-only `R`), radians.
+    pub median_parallax_rad: f64,
+    /// RANSAC iterations run.
+    pub iterations: usize,
+    /// Report of the last refinement (`None` when disabled).
+    pub refine: Option<RefineReport>,
+    /// Inliers triangulated in camera `a` (units of `|t|`); `None` for outliers. Empty unless
+    /// [`EssentialParams::triangulate`].
+    pub points_in_a: Vec<Option<Point3<f64>>>,
+}
+
+// ---------------------------------------------------------------------------------------------
+// Polynomials of degree <= 3 in (x, y, z), in the monomial order of Stewénius et al. (2006).
+
+const N_MONO: usize = 20;
+type Poly = [f64; N_MONO];
+
+/// Exponents (x, y, z) of the monomials: the 10 cubic ones first, then the quotient basis.
+const EXPONENTS: [[usize; 3]; N_MONO] = [
+    [3, 0, 0],
+    [2, 1, 0],
+    [1, 2, 0],
+    [0, 3, 0],
+    [2, 0, 1],
+    [1, 1, 1],
+    [0, 2, 1],
+    [1, 0, 2],
+    [0, 1, 2],
+    [0, 0, 3],
+    [2, 0, 0],
+    [1, 1, 0],
+    [0, 2, 0],
+    [1, 0, 1],
+    [0, 1, 1],
+    [0, 0, 2],
+    [1, 0, 0],
+    [0, 1, 0],
+    [0, 0, 1],
+    [0, 0, 0],
+];
+
+const fn build_index() -> [[[usize; 4]; 4]; 4] {
+    let mut table = [[[usize::MAX; 4]; 4]; 4];
+    let mut k = 0;
+    while k < N_MONO {
+        let e = EXPONENTS[k];
+        table[e[0]][e[1]][e[2]] = k;
+        k += 1;
+    }
+    table
+}
+
+/// `MONO_INDEX[a][b][c]` = position of `x^a y^b z^c` (`usize::MAX` for degree > 3).
+const MONO_INDEX: [[[usize; 4]; 4]; 4] = build_index();
+
+/// Product table: `PRODUCT[i][j]` = index of monomial i * monomial j, or `usize::MAX`.
+const fn build_product() -> [[usize; N_MONO]; N_MONO] {
+    let mut table = [[usize::MAX; N_MONO]; N_MONO];
+    let mut i = 0;
+    while i < N_MONO {
+        let mut j = 0;
+        while j < N_MONO {
+            let a = EXPONENTS[i][0] + EXPONENTS[j][0];
+            let b = EXPONENTS[i][1] + EXPONENTS[j][1];
+            let c = EXPONENTS[i][2] + EXPONENTS[j][2];
+            if a + b + c <= 3 {
+                table[i][j] = MONO_INDEX[a][b][c];
+            }
+            j += 1;
+        }
+        i += 1;
+    }
+    table
+}
+
+const PRODUCT: [[usize; N_MONO]; N_MONO] = build_product();
+
+/// Product of two polynomials whose product has degree <= 3 (terms above are dropped; the
+/// callers only multiply degrees summing to <= 3).
+fn poly_mul(a: &Poly, b: &Poly) -> Poly {
+    let mut out = [0.0; N_MONO];
+    for (i, &ai) in a.iter().enumerate() {
+        if ai == 0.0 {
+            continue;
+        }
+        for (j, &bj) in b.iter().enumerate() {
+            if bj == 0.0 {
+                continue;
+            }
+            if let Some(slot) = out.get_mut(PRODUCT[i][j]) {
+                *slot += ai * bj;
+            }
+        }
+    }
+    out
+}
+
+fn poly_add(a: &Poly, b: &Poly) -> Poly {
+    let mut out = *a;
+    for (o, v) in out.iter_mut().zip(b) {
+        *o += v;
+    }
+    out
+}
+
+fn poly_scale(a: &Poly, s: f64) -> Poly {
+    let mut out = *a;
+    for o in &mut out {
+        *o *= s;
+    }
+    out
+}
+
+/// The 5-point minimal solver (module docs): all real essential matrices `E` (unit Frobenius
+/// norm) with `x_a[i]^T E x_b[i] = 0` for the five correspondences. Up to 10 solutions; an
+/// empty vector when the sample is degenerate.
+///
+/// # Errors
+/// [`RelPoseError::NonFinite`].
+pub fn essential_five_point(
+    x_a: &[Point2<f64>; 5],
+    x_b: &[Point2<f64>; 5],
+) -> Result<Vec<Matrix3<f64>>, RelPoseError> {
+    for (i, (a, b)) in x_a.iter().zip(x_b).enumerate() {
+        if !(a
+            .coords
+            .iter()
+            .chain(b.coords.iter())
+            .all(|c| c.is_finite()))
+        {
+            return Err(RelPoseError::NonFinite { index: i });
+        }
+    }
+    // Epipolar constraints, row-major vec(E), padded to 9x9 for a full right singular basis.
+    let mut q = SMatrix::<f64, 9, 9>::zeros();
+    for (r, (a, b)) in x_a.iter().zip(x_b).enumerate() {
+        let xa = [a.x, a.y, 1.0];
+        let xb = [b.x, b.y, 1.0];
+        for m in 0..3 {
+            for n in 0..3 {
+                q[(r, 3 * m + n)] = xa[m] * xb[n];
+            }
+        }
+    }
+    let Some(svd) = nalgebra::SVD::try_new(q, false, true, f64::EPSILON, 1000) else {
+        return Ok(Vec::new());
+    };
+    let Some(v_t) = svd.v_t else {
+        return Ok(Vec::new());
+    };
+    let s = svd.singular_values;
+    if s[4] <= 1e-10 * s[0] {
+        return Ok(Vec::new()); // fewer than 5 independent constraints
+    }
+    let basis = |row: usize| -> Matrix3<f64> { Matrix3::from_fn(|m, n| v_t[(row, 3 * m + n)]) };
+    let (bx, by, bz, bw) = (basis(5), basis(6), basis(7), basis(8));
+    // E entries as linear polynomials.
+    let mut e = [[[0.0; N_MONO]; 3]; 3];
+    for (m, row) in e.iter_mut().enumerate() {
+        for (n, p) in row.iter_mut().enumerate() {
+            p[16] = bx[(m, n)];
+            p[17] = by[(m, n)];
+            p[18] = bz[(m, n)];
+            p[19] = bw[(m, n)];
+        }
+    }
+    // E E^T (quadratic, symmetric).
+    let mut eet = [[[0.0; N_MONO]; 3]; 3];
+    for i in 0..3 {
+        for j in i..3 {
+            let mut acc = [0.0; N_MONO];
+            for (eik, ejk) in e[i].iter().zip(&e[j]) {
+                acc = poly_add(&acc, &poly_mul(eik, ejk));
+            }
+            eet[i][j] = acc;
+            eet[j][i] = acc;
+        }
+    }
+    let trace = poly_add(&poly_add(&eet[0][0], &eet[1][1]), &eet[2][2]);
+    let mut rows: Vec<Poly> = Vec::with_capacity(10);
+    for (e_row_i, eet_row_i) in e.iter().zip(&eet) {
+        for (j, e_ij) in e_row_i.iter().enumerate() {
+            let mut acc = [0.0; N_MONO];
+            for (eet_ik, e_row_k) in eet_row_i.iter().zip(&e) {
+                acc = poly_add(&acc, &poly_mul(eet_ik, &e_row_k[j]));
+            }
+            let trace_e = poly_mul(&trace, e_ij);
+            rows.push(poly_add(
+                &poly_scale(&acc, 2.0),
+                &poly_scale(&trace_e, -1.0),
+            ));
+        }
+    }
+    let minor = |r1: usize, c1: usize, r2: usize, c2: usize| {
+        poly_add(
+            &poly_mul(&e[r1][c1], &e[r2][c2]),
+            &poly_scale(&poly_mul(&e[r1][c2], &e[r2][c1]), -1.0),
+        )
+    };
+    let det = poly_add(
+        &poly_add(
+            &poly_mul(&e[0][0], &minor(1, 1, 2, 2)),
+            &poly_scale(&poly_mul(&e[0][1], &minor(1, 0, 2, 2)), -1.0),
+        ),
+        &poly_mul(&e[0][2], &minor(1, 0, 2, 1)),
+    );
+    rows.push(det);
+    // Gauss-Jordan on the cubic monomials: B = L^-1 R.
+    let mut l = SMatrix::<f64, 10, 10>::zeros();
+    let mut rr = SMatrix::<f64, 10, 10>::zeros();
+    for (r, p) in rows.iter().enumerate() {
+        for c in 0..10 {
+            l[(r, c)] = p[c];
+            rr[(r, c)] = p[c + 10];
+        }
+    }
+    let lu = l.lu();
+    let Some(b) = lu.solve(&rr) else {
+        return Ok(Vec::new());
+    };
+    if !b.iter().all(|v| v.is_finite()) {
+        return Ok(Vec::new());
+    }
+    // Action matrix of x on [x^2, xy, y^2, xz, yz, z^2, x, y, z, 1].
+    let mut action = SMatrix::<f64, 10, 10>::zeros();
+    for (row, cubic) in [(0usize, 0usize), (1, 1), (2, 2), (3, 4), (4, 5), (5, 7)] {
+        for c in 0..10 {
+            action[(row, c)] = -b[(cubic, c)];
+        }
+    }
+    action[(6, 0)] = 1.0;
+    action[(7, 1)] = 1.0;
+    action[(8, 3)] = 1.0;
+    action[(9, 6)] = 1.0;
+    let Some(schur) = nalgebra::Schur::try_new(action, f64::EPSILON, 10_000) else {
+        return Ok(Vec::new());
+    };
+    let eigenvalues = schur.complex_eigenvalues();
+    let mut out = Vec::new();
+    let mut seen: Vec<f64> = Vec::new();
+    for ev in eigenvalues.iter() {
+        if ev.im.abs() > 1e-8 * (1.0 + ev.re.abs()) {
+            continue;
+        }
+        let lambda = ev.re;
+        if seen
+            .iter()
+            .any(|s| (s - lambda).abs() <= 1e-12 * (1.0 + lambda.abs()))
+        {
+            continue;
+        }
+        seen.push(lambda);
+        let Some(v) = eigenvector(&action, lambda) else {
+            continue;
+        };
+        if v[9].abs() <= 1e-14 * v.norm() {
+            continue;
+        }
+        let (x, y, z) = (v[6] / v[9], v[7] / v[9], v[8] / v[9]);
+        let em = bx * x + by * y + bz * z + bw;
+        let norm = em.norm();
+        if norm > 0.0 && norm.is_finite() {
+            out.push(em / norm);
+        }
+    }
+    Ok(out)
+}
+
+/// Eigenvector of `a` for the real eigenvalue `lambda`: two steps of inverse iteration with a
+/// tiny shift (one LU), checked by its residual; the SVD null vector of `a - lambda I` when
+/// that fails.
+fn eigenvector(a: &SMatrix<f64, 10, 10>, lambda: f64) -> Option<SVector<f64, 10>> {
+    let scale = 1.0 + lambda.abs();
+    let shifted = a - SMatrix::<f64, 10, 10>::identity() * (lambda + 1e-10 * scale);
+    let lu = shifted.lu();
+    let residual_ok = |v: &SVector<f64, 10>| {
+        let n = v.norm();
+        n > 0.0 && n.is_finite() && (a * v - v * lambda).norm() <= 1e-9 * scale * n
+    };
+    if let Some(v1) = lu.solve(&SVector::<f64, 10>::repeat(1.0)) {
+        let n1 = v1.norm();
+        if n1 > 0.0
+            && n1.is_finite()
+            && let Some(v2) = lu.solve(&(v1 / n1))
+            && residual_ok(&v2)
+        {
+            return Some(v2);
+        }
+    }
+    let shifted = a - SMatrix::<f64, 10, 10>::identity() * lambda;
+    let svd = nalgebra::SVD::try_new(shifted, false, true, f64::EPSILON, 1000)?;
+    let v: SVector<f64, 10> = svd.v_t?.row(9).transpose();
+    residual_ok(&v).then_some(v)
+}
+
+/// Hartley's isotropic normalisation: centroid to the origin, mean distance `sqrt 2`.
+fn hartley_normalisation(x: &[Point2<f64>]) -> Matrix3<f64> {
+    let n = x.len().max(1) as f64;
+    let c = x
+        .iter()
+        .fold(nalgebra::Vector2::zeros(), |acc, p| acc + p.coords)
+        / n;
+    let mean_dist = x.iter().map(|p| (p.coords - c).norm()).sum::<f64>() / n;
+    let s = if mean_dist > 0.0 {
+        std::f64::consts::SQRT_2 / mean_dist
+    } else {
+        1.0
+    };
+    Matrix3::new(s, 0.0, -s * c.x, 0.0, s, -s * c.y, 0.0, 0.0, 1.0)
+}
+
+/// Projects a 3x3 matrix onto the essential manifold (singular values `(1, 1, 0)`, H&Z
+/// sec. 9.6, up to scale), unit Frobenius norm.
+///
+/// # Errors
+/// [`RelPoseError::Numerical`] (SVD failure).
+pub fn project_to_essential(m: &Matrix3<f64>) -> Result<Matrix3<f64>, RelPoseError> {
+    let svd = nalgebra::SVD::try_new(*m, true, true, f64::EPSILON, 1000).ok_or(
+        RelPoseError::Numerical {
+            step: "essential projection svd",
+        },
+    )?;
+    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
+        return Err(RelPoseError::Numerical {
+            step: "essential projection svd",
+        });
+    };
+    let e = u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 0.0)) * v_t;
+    Ok(e / std::f64::consts::SQRT_2)
+}
+
+/// Normalised 8-point algorithm (Hartley 1997, "In defense of the eight-point algorithm",
+/// PAMI 19(6)) for `x_a^T E x_b = 0` on `n >= 8` correspondences, projected onto the
+/// essential manifold; unit Frobenius norm.
+///
+/// # Errors
+/// [`RelPoseError::LengthMismatch`], [`RelPoseError::TooFewCorrespondences`] (< 8),
+/// [`RelPoseError::NonFinite`], [`RelPoseError::Numerical`].
+pub fn essential_eight_point(
+    x_a: &[Point2<f64>],
+    x_b: &[Point2<f64>],
+) -> Result<Matrix3<f64>, RelPoseError> {
+    check_lengths(x_a.len(), x_b.len(), 8)?;
+    check_finite(x_a, x_b)?;
+    let ta = hartley_normalisation(x_a);
+    let tb = hartley_normalisation(x_b);
+    let rows = x_a.len().max(9);
+    let mut a = nalgebra::DMatrix::<f64>::zeros(rows, 9);
+    for (r, (pa, pb)) in x_a.iter().zip(x_b).enumerate() {
+        let xa = ta * Vector3::new(pa.x, pa.y, 1.0);
+        let xb = tb * Vector3::new(pb.x, pb.y, 1.0);
+        for m in 0..3 {
+            for n in 0..3 {
+                a[(r, 3 * m + n)] = xa[m] * xb[n];
+            }
+        }
+    }
+    let svd = nalgebra::SVD::try_new(a, false, true, f64::EPSILON, 1000).ok_or(
+        RelPoseError::Numerical {
+            step: "eight-point svd",
+        },
+    )?;
+    let Some(v_t) = svd.v_t else {
+        return Err(RelPoseError::Numerical {
+            step: "eight-point svd",
+        });
+    };
+    let last = v_t.nrows().saturating_sub(1);
+    let e_hat = Matrix3::from_fn(|m, n| v_t[(last, 3 * m + n)]);
+    project_to_essential(&(ta.transpose() * e_hat * tb))
+}
+
+/// The four `(R, t)` of `E = U diag(1,1,0) V^T` (H&Z result 9.19), as `a_from_b` with
+/// `|t| = 1`, in the order `(R1, t), (R1, -t), (R2, t), (R2, -t)`, `R1 = U W V^T`,
+/// `R2 = U W^T V^T`, `t = u_3`.
+///
+/// # Errors
+/// [`RelPoseError::Numerical`] (SVD failure), [`RelPoseError::NonFinite`].
+pub fn decompose_essential(e: &Matrix3<f64>) -> Result<[Isometry3<f64>; 4], RelPoseError> {
+    if !e.iter().all(|v| v.is_finite()) {
+        return Err(RelPoseError::NonFinite { index: 0 });
+    }
+    let svd = nalgebra::SVD::try_new(*e, true, true, f64::EPSILON, 1000).ok_or(
+        RelPoseError::Numerical {
+            step: "essential decomposition svd",
+        },
+    )?;
+    let (Some(mut u), Some(mut v_t)) = (svd.u, svd.v_t) else {
+        return Err(RelPoseError::Numerical {
+            step: "essential decomposition svd",
+        });
+    };
+    if u.determinant() < 0.0 {
+        u = -u;
+    }
+    if v_t.determinant() < 0.0 {
+        v_t = -v_t;
+    }
+    let w = Matrix3::new(0.0, -1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0);
+    let r1 = u * w * v_t;
+    let r2 = u * w.transpose() * v_t;
+    let t: Vector3<f64> = u.column(2).into_owned();
+    let iso = |r: &Matrix3<f64>, t: Vector3<f64>| {
+        Isometry3::from_parts(
+            Translation3::from(t),
+            UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(*r)),
+        )
+    };
+    Ok([iso(&r1, t), iso(&r1, -t), iso(&r2, t), iso(&r2, -t)])
+}
+
+fn check_finite(x_a: &[Point2<f64>], x_b: &[Point2<f64>]) -> Result<(), RelPoseError> {
+    for (i, (a, b)) in x_a.iter().zip(x_b).enumerate() {
+        if !(a
+            .coords
+            .iter()
+            .chain(b.coords.iter())
+            .all(|c| c.is_finite()))
+        {
+            return Err(RelPoseError::NonFinite { index: i });
+        }
+    }
+    Ok(())
+}
+
+/// Ratio of the smaller to the larger eigenvalue of the 2x2 covariance of the points (0 when
+/// collinear or coincident).
+fn image_spread_ratio(x: &[Point2<f64>]) -> f64 {
+    let n = x.len().max(1) as f64;
+    let c = x
+        .iter()
+        .fold(nalgebra::Vector2::zeros(), |acc, p| acc + p.coords)
+        / n;
+    let cov = x.iter().fold(nalgebra::Matrix2::zeros(), |acc, p| {
+        let d = p.coords - c;
+        acc + d * d.transpose()
+    }) / n;
+    let eig = cov.symmetric_eigenvalues();
+    let (lo, hi) = (eig.min(), eig.max());
+    if hi > 0.0 { lo.max(0.0) / hi } else { 0.0 }
+}
+
+fn bearing(x: &Point2<f64>) -> Vector3<f64> {
+    Vector3::new(x.x, x.y, 1.0).normalize()
+}
+
+/// Rotation `R` maximising `sum f_a^T R f_b` over bearing pairs (Kabsch 1976; the
+/// rotation-only model of a zero-baseline motion).
+fn rotation_from_bearings<'a>(
+    pairs: impl Iterator<Item = (&'a Vector3<f64>, &'a Vector3<f64>)>,
+) -> Option<Matrix3<f64>> {
+    let mut h = Matrix3::zeros();
+    for (fa, fb) in pairs {
+        h += fa * fb.transpose();
+    }
+    let svd = nalgebra::SVD::try_new(h, true, true, f64::EPSILON, 1000)?;
+    let (u, v_t) = (svd.u?, svd.v_t?);
+    let d = if u.determinant() * v_t.determinant() < 0.0 {
+        -1.0
+    } else {
+        1.0
+    };
+    Some(u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * v_t)
+}
+
+/// Angle between two unit vectors, accurate near 0 (`atan2(|a x b|, a . b)`).
+fn angle_between(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+    a.cross(b).norm().atan2(a.dot(b))
+}
+
+/// Median angle between `f_a` and `R f_b` for the best rotation-only model `R` (Kabsch on the
+/// bearing vectors) over the masked correspondences: the rotation-compensated parallax.
+/// `NaN` when the mask is empty.
+///
+/// # Errors
+/// [`RelPoseError::Numerical`] (SVD failure).
+pub fn rotation_only_median_residual_rad(
+    x_a: &[Point2<f64>],
+    x_b: &[Point2<f64>],
+    mask: Option<&[bool]>,
+) -> Result<f64, RelPoseError> {
+    let used = |i: usize| mask.is_none_or(|m| m.get(i).copied().unwrap_or(false));
+    let fa: Vec<Vector3<f64>> = x_a.iter().map(bearing).collect();
+    let fb: Vec<Vector3<f64>> = x_b.iter().map(bearing).collect();
+    let pairs = || {
+        fa.iter()
+            .zip(&fb)
+            .enumerate()
+            .filter(|(i, _)| used(*i))
+            .map(|(_, p)| p)
+    };
+    if pairs().next().is_none() {
+        return Ok(f64::NAN);
+    }
+    let r = rotation_from_bearings(pairs()).ok_or(RelPoseError::Numerical {
+        step: "rotation-only svd",
+    })?;
+    let mut angles: Vec<f64> = pairs().map(|(a, b)| angle_between(a, &(r * b))).collect();
+    angles.sort_by(f64::total_cmp);
+    Ok(angles.get(angles.len() / 2).copied().unwrap_or(f64::NAN))
+}
+
+/// Inliers of the best rotation-only model (2-point RANSAC on bearings, module docs).
+fn rotation_only_support(
+    x_a: &[Point2<f64>],
+    x_b: &[Point2<f64>],
+    threshold_rad: f64,
+    config: &RansacConfig,
+    seed: u64,
+) -> usize {
+    let fa: Vec<Vector3<f64>> = x_a.iter().map(bearing).collect();
+    let fb: Vec<Vector3<f64>> = x_b.iter().map(bearing).collect();
+    let outcome = ransac(
+        fa.len(),
+        2,
+        threshold_rad * threshold_rad,
+        config,
+        seed,
+        |s, models| {
+            let pairs = s.iter().filter_map(|&i| fa.get(i).zip(fb.get(i)));
+            if let Some(r) = rotation_from_bearings(pairs) {
+                models.push(r);
+            }
+        },
+        |r, i| match (fa.get(i), fb.get(i)) {
+            (Some(a), Some(b)) => (a - r * b).norm_squared(),
+            _ => f64::INFINITY,
+        },
+    );
+    outcome.inlier_count
+}
+
+/// Sampson inliers of `a_from_b` that also triangulate in front of both cameras.
+fn classify(
+    x_a: &[Point2<f64>],
+    x_b: &[Point2<f64>],
+    a_from_b: &Isometry3<f64>,
+    threshold: f64,
+) -> (Vec<bool>, usize, f64) {
+    let e = essential_of(a_from_b);
+    let mut flags = Vec::with_capacity(x_a.len());
+    let mut count = 0;
+    let mut sum_sq = 0.0;
+    for (a, b) in x_a.iter().zip(x_b) {
+        let d = sampson_distance(&e, a, b).unwrap_or(f64::INFINITY);
+        let ok = d.abs() <= threshold
+            && triangulate_midpoint(a_from_b, a, b).is_ok_and(|t| t.in_front());
+        if ok {
+            count += 1;
+            sum_sq += d * d;
+        }
+        flags.push(ok);
+    }
+    let rms = if count > 0 {
+        (sum_sq / count as f64).sqrt()
+    } else {
+        f64::NAN
+    };
+    (flags, count, rms)
+}
+
+/// `E = [t]x R` of a motion.
+pub fn essential_of(a_from_b: &Isometry3<f64>) -> Matrix3<f64> {
+    skew(&a_from_b.translation.vector) * a_from_b.rotation.to_rotation_matrix().into_inner()
+}
+
+fn sampson_cost(e: &Matrix3<f64>, x_a: &[Point2<f64>], x_b: &[Point2<f64>], mask: &[bool]) -> f64 {
+    x_a.iter()
+        .zip(x_b)
+        .zip(mask)
+        .filter(|(_, m)| **m)
+        .map(|((a, b), _)| sampson_distance(e, a, b).map_or(f64::INFINITY, |d| d * d))
+        .sum()
+}
+
+/// Estimates `a_from_b` (rotation, translation direction) from normalised undistorted
+/// correspondences (`x_a[i]` in camera `a` and `x_b[i]` in camera `b` see the same point), as
+/// described in the module docs. Deterministic for a given `seed`.
+///
+/// # Errors
+/// [`RelPoseError::LengthMismatch`], [`RelPoseError::TooFewCorrespondences`] (< 5),
+/// [`RelPoseError::NonFinite`], [`RelPoseError::InvalidParameter`],
+/// [`RelPoseError::Degenerate`] (collinear/coincident points, pure rotation, ambiguous
+/// cheirality), [`RelPoseError::NoConsensus`].
+pub fn estimate_essential_ransac(
+    x_a: &[Point2<f64>],
+    x_b: &[Point2<f64>],
+    params: &EssentialParams,
+    seed: u64,
+) -> Result<EssentialEstimate, RelPoseError> {
+    check_lengths(x_a.len(), x_b.len(), ESSENTIAL_SAMPLE_SIZE)?;
+    check_finite(x_a, x_b)?;
+    let thr = params.inlier_threshold;
+    if !(thr.is_finite() && thr > 0.0) {
+        return Err(RelPoseError::InvalidParameter {
+            name: "inlier_threshold",
+            value: thr,
+        });
+    }
+    for (name, value) in [
+        (
+            "pure_rotation_threshold_rad",
+            params.pure_rotation_threshold_rad,
+        ),
+        ("pure_rotation_ratio", params.pure_rotation_ratio),
+        ("max_direction_std_rad", params.max_direction_std_rad),
+    ] {
+        if !(value.is_finite() && value > 0.0) {
+            return Err(RelPoseError::InvalidParameter { name, value });
+        }
+    }
+    for x in [x_a, x_b] {
+        let ratio = image_spread_ratio(x);
+        if ratio.is_nan() || ratio <= COLLINEAR_IMAGE_RATIO {
+            return Err(RelPoseError::Degenerate {
+                reason: format!(
+                    "image points coincident or collinear (covariance eigenvalue ratio {ratio:.3e})"
+                ),
+            });
+        }
+    }
+    let n = x_a.len();
+    let needed = params.min_inliers.max(ESSENTIAL_SAMPLE_SIZE);
+    let outcome = ransac(
+        n,
+        ESSENTIAL_SAMPLE_SIZE,
+        thr * thr,
+        &params.ransac,
+        seed,
+        |s, models| {
+            let mut sa = [Point2::origin(); ESSENTIAL_SAMPLE_SIZE];
+            let mut sb = [Point2::origin(); ESSENTIAL_SAMPLE_SIZE];
+            for ((pa, pb), &q) in sa.iter_mut().zip(sb.iter_mut()).zip(s) {
+                let (Some(a), Some(b)) = (x_a.get(q), x_b.get(q)) else {
+                    return;
+                };
+                *pa = *a;
+                *pb = *b;
+            }
+            if let Ok(es) = essential_five_point(&sa, &sb) {
+                models.extend(es);
+            }
+        },
+        |e, i| match (x_a.get(i), x_b.get(i)) {
+            (Some(a), Some(b)) => sampson_distance(e, a, b).map_or(f64::INFINITY, |d| d * d),
+            _ => f64::INFINITY,
+        },
+    );
+    // Pure rotation: the rotation-only model explains (nearly) as much as E. Only a rotation
+    // with at least `ratio * |E inliers|` support matters, so the iterations that find such a
+    // model with the configured confidence suffice.
+    let min_fraction =
+        params.pure_rotation_ratio * outcome.inlier_count.max(needed) as f64 / n as f64;
+    let rotation_config = RansacConfig {
+        max_iterations: required_iterations(&params.ransac, min_fraction, 2),
+        ..params.ransac
+    };
+    let rotation_support = rotation_only_support(
+        x_a,
+        x_b,
+        params.pure_rotation_threshold_rad,
+        &rotation_config,
+        seed ^ 0x5EED_0FA0_7A7E,
+    );
+    if rotation_support >= needed
+        && rotation_support as f64 >= params.pure_rotation_ratio * outcome.inlier_count as f64
+    {
+        return Err(RelPoseError::Degenerate {
+            reason: format!(
+                "pure rotation: a rotation-only model explains {rotation_support} \
+                 correspondences, the essential matrix {}; translation direction undefined",
+                outcome.inlier_count
+            ),
+        });
+    }
+    let Some(mut e_best) = outcome.model else {
+        return Err(RelPoseError::NoConsensus {
+            best_inliers: 0,
+            needed,
+        });
+    };
+    if outcome.inlier_count < needed {
+        return Err(RelPoseError::NoConsensus {
+            best_inliers: outcome.inlier_count,
+            needed,
+        });
+    }
+    let ransac_mask = outcome.inliers;
+    if params.eight_point_polish && outcome.inlier_count >= 8 {
+        let sa: Vec<_> = select(x_a, &ransac_mask);
+        let sb: Vec<_> = select(x_b, &ransac_mask);
+        if let Ok(e8) = essential_eight_point(&sa, &sb)
+            && sampson_cost(&e8, x_a, x_b, &ransac_mask)
+                < sampson_cost(&e_best, x_a, x_b, &ransac_mask)
+        {
+            e_best = e8;
+        }
+    }
+    // Cheirality: pick the decomposition with the most points in front of both cameras.
+    let candidates = decompose_essential(&e_best)?;
+    let mut cheirality_counts = [0usize; 4];
+    for (count, cand) in cheirality_counts.iter_mut().zip(&candidates) {
+        *count = x_a
+            .iter()
+            .zip(x_b)
+            .zip(&ransac_mask)
+            .filter(|(_, m)| **m)
+            .filter(|((a, b), _)| triangulate_midpoint(cand, a, b).is_ok_and(|t| t.in_front()))
+            .count();
+    }
+    let (chosen_decomposition, &best_count) = cheirality_counts
+        .iter()
+        .enumerate()
+        .max_by_key(|(_, c)| **c)
+        .unwrap_or((0, &0));
+    let Some(&chosen) = candidates.get(chosen_decomposition) else {
+        return Err(RelPoseError::Numerical {
+            step: "decomposition",
+        });
+    };
+    if best_count < needed || 2 * best_count < outcome.inlier_count {
+        return Err(RelPoseError::Degenerate {
+            reason: format!(
+                "cheirality: best decomposition has {best_count} of {} inliers in front \
+                 (counts {cheirality_counts:?})",
+                outcome.inlier_count
+            ),
+        });
+    }
+    let mut a_from_b = chosen;
+    let (mut mask, mut count, _) = classify(x_a, x_b, &a_from_b, thr);
+    let mut report = None;
+    if params.refine {
+        for _round in 0..MAX_REFINE_ROUNDS {
+            if count < needed {
+                break;
+            }
+            let r = refine_essential(
+                &select(x_a, &mask),
+                &select(x_b, &mask),
+                &a_from_b,
+                &params.refine_params,
+            )?;
+            a_from_b = r.a_from_b;
+            report = Some(r);
+            let (m, c, _) = classify(x_a, x_b, &a_from_b, thr);
+            let unchanged = m == mask;
+            mask = m;
+            count = c;
+            if unchanged {
+                break;
+            }
+        }
+    }
+    let (inliers, inlier_count, rms_sampson) = classify(x_a, x_b, &a_from_b, thr);
+    if inlier_count < needed {
+        return Err(RelPoseError::NoConsensus {
+            best_inliers: inlier_count,
+            needed,
+        });
+    }
+    if let Some(r) = &report
+        && r.translation_std > params.max_direction_std_rad
+    {
+        return Err(RelPoseError::Degenerate {
+            reason: format!(
+                "translation direction ill-conditioned: standard deviation {:.2} deg > {:.2} deg \
+                 ({inlier_count} inliers; baseline too small for the parallax)",
+                r.translation_std.to_degrees(),
+                params.max_direction_std_rad.to_degrees()
+            ),
+        });
+    }
+    let median_parallax_rad = rotation_only_median_residual_rad(x_a, x_b, Some(&inliers))?;
+    if median_parallax_rad.is_nan() || median_parallax_rad < params.pure_rotation_threshold_rad {
+        return Err(RelPoseError::Degenerate {
+            reason: format!(
+                "pure rotation: median rotation-compensated parallax {median_parallax_rad:.3e} \
+                 rad < {:.3e} rad over {inlier_count} inliers; translation direction undefined",
+                params.pure_rotation_threshold_rad
+            ),
+        });
+    }
+    let points_in_a = if params.triangulate {
+        x_a.iter()
+            .zip(x_b)
+            .zip(&inliers)
+            .map(|((a, b), &m)| {
+                if m {
+                    triangulate_dlt(&a_from_b, a, b).ok().map(|t| t.p_in_a)
+                } else {
+                    None
+                }
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    Ok(EssentialEstimate {
+        essential: essential_of(&a_from_b),
+        a_from_b,
+        inliers,
+        inlier_count,
+        cheirality_counts,
+        chosen_decomposition,
+        rms_sampson,
+        median_parallax_rad,
+        iterations: outcome.iterations,
+        refine: report,
+        points_in_a,
+    })
+}
+
+fn select<T: Copy>(v: &[T], mask: &[bool]) -> Vec<T> {
+    v.iter()
+        .zip(mask)
+        .filter_map(|(x, &m)| m.then_some(*x))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn monomial_tables_are_consistent() {
+        for (k, e) in EXPONENTS.iter().enumerate() {
+            assert_eq!(MONO_INDEX[e[0]][e[1]][e[2]], k);
+        }
+        // x * x^2 = x^3, y * xz = xyz, 1 * 1 = 1, x^2 * x^2 is dropped (degree 4).
+        assert_eq!(PRODUCT[16][10], 0);
+        assert_eq!(PRODUCT[17][13], 5);
+        assert_eq!(PRODUCT[19][19], 19);
+        assert_eq!(PRODUCT[10][10], usize::MAX);
+    }
+
+    #[test]
+    fn polynomial_product_expands_correctly() {
+        // (x + 2)(y - 1) = xy - x + 2y - 2.
+        let mut p = [0.0; N_MONO];
+        p[16] = 1.0;
+        p[19] = 2.0;
+        let mut q = [0.0; N_MONO];
+        q[17] = 1.0;
+        q[19] = -1.0;
+        let r = poly_mul(&p, &q);
+        let mut expected = [0.0; N_MONO];
+        expected[11] = 1.0;
+        expected[16] = -1.0;
+        expected[17] = 2.0;
+        expected[19] = -2.0;
+        assert_eq!(r, expected);
+    }
+
+    #[test]
+    fn decomposition_candidates_reproduce_the_essential_matrix() {
+        let a_from_b = Isometry3::from_parts(
+            Translation3::from(Vector3::new(0.08, -0.03, 0.02).normalize()),
+            UnitQuaternion::from_scaled_axis(Vector3::new(-0.1, -0.15, 0.3)),
+        );
+        let e = essential_of(&a_from_b);
+        for c in decompose_essential(&e).expect("decompose") {
+            let ec = essential_of(&c);
+            // Each candidate has the same E up to sign.
+            assert!((ec - e).norm().min((ec + e).norm()) < 1e-12);
+        }
+    }
+}

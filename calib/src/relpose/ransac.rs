@@ -1,0 +1,262 @@
+//! Generic, seeded, deterministic RANSAC with MSAC scoring and an adaptive iteration count.
+//!
+//! Fischler & Bolles (1981) hypothesise-and-verify; hypotheses are scored with the truncated
+//! quadratic of MSAC (Torr & Zisserman 2000, MLESAC paper, sec. 3), `sum_i min(r_i^2, T^2)`, which ranks
+//! equal-count hypotheses by their fit. After each improvement the number of iterations is
+//! lowered to (Hartley & Zisserman 2004, eq. 4.18)
+//!
+//! ```text
+//! N = log(1 - p) / log(1 - w^s)
+//! ```
+//!
+//! with `p` the confidence, `w` the inlier fraction of the best hypothesis and `s` the sample
+//! size, clamped to `[min_iterations, max_iterations]`.
+//!
+//! Samples come from [`SplitMix64`] (Steele, Lea & Flood 2014), a counter-based generator:
+//! the k-th draw is `mix(seed + k * 0x9E3779B97F4A7C15)`, independent of threads and clocks.
+
+/// Counter-based SplitMix64 generator (Steele, Lea & Flood, OOPSLA 2014).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SplitMix64 {
+    state: u64,
+}
+
+impl SplitMix64 {
+    /// Golden-ratio increment of the counter.
+    const GAMMA: u64 = 0x9E37_79B9_7F4A_7C15;
+
+    /// A generator whose stream is fully determined by `seed`.
+    pub fn new(seed: u64) -> Self {
+        Self { state: seed }
+    }
+
+    /// Next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.state = self.state.wrapping_add(Self::GAMMA);
+        let mut z = self.state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform integer in `[0, n)` (Lemire's multiply-shift; bias < n / 2^64). `n = 0` gives 0.
+    pub fn below(&mut self, n: usize) -> usize {
+        ((u128::from(self.next_u64()) * n as u128) >> 64) as usize
+    }
+
+    /// Uniform float in `[0, 1)` with 53 random bits.
+    pub fn unit_f64(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+
+    /// Standard normal deviate (Box-Muller).
+    pub fn normal(&mut self) -> f64 {
+        let u1 = 1.0 - self.unit_f64();
+        let u2 = self.unit_f64();
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    }
+
+    /// Fills `out` with `out.len()` distinct indices in `[0, n)` (rejection; `out.len()` is a
+    /// small minimal-sample size). Returns false, drawing nothing, when `n < out.len()`.
+    pub fn distinct(&mut self, n: usize, out: &mut [usize]) -> bool {
+        let k = out.len();
+        if n < k {
+            return false;
+        }
+        let mut filled = 0;
+        while filled < k {
+            let c = self.below(n);
+            if !out[..filled].contains(&c) {
+                out[filled] = c;
+                filled += 1;
+            }
+        }
+        true
+    }
+}
+
+/// Stopping rule of [`ransac`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RansacConfig {
+    /// Confidence `p` of having drawn one all-inlier sample; default 0.999.
+    pub confidence: f64,
+    /// Iterations always run (robustness to a lucky early sample); default 50.
+    pub min_iterations: usize,
+    /// Hard cap on iterations; default 5000.
+    pub max_iterations: usize,
+}
+
+impl Default for RansacConfig {
+    fn default() -> Self {
+        Self {
+            confidence: 0.999,
+            min_iterations: 50,
+            max_iterations: 5000,
+        }
+    }
+}
+
+/// Outcome of [`ransac`]: the best hypothesis and how it was found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RansacOutcome<M> {
+    /// Best model (lowest MSAC cost); `None` when no sample gave a model.
+    pub model: Option<M>,
+    /// Inlier flags of the best model (`r^2 <= T^2`).
+    pub inliers: Vec<bool>,
+    /// Number of inliers of the best model.
+    pub inlier_count: usize,
+    /// MSAC cost of the best model.
+    pub cost: f64,
+    /// Iterations (samples drawn) run.
+    pub iterations: usize,
+}
+
+/// Adaptive iteration bound `log(1 - p) / log(1 - w^s)` (module equation), clamped.
+pub fn required_iterations(
+    config: &RansacConfig,
+    inlier_fraction: f64,
+    sample_size: usize,
+) -> usize {
+    let max = config.max_iterations.max(config.min_iterations);
+    if inlier_fraction.is_nan() || inlier_fraction <= 0.0 {
+        return max;
+    }
+    let ws = inlier_fraction.min(1.0).powi(sample_size as i32);
+    if ws >= 1.0 {
+        return config.min_iterations;
+    }
+    let p = config.confidence.clamp(0.0, 1.0 - 1e-12);
+    let n = (1.0 - p).ln() / (1.0 - ws).ln();
+    if !n.is_finite() {
+        return max;
+    }
+    (n.ceil() as usize).clamp(config.min_iterations, max)
+}
+
+/// Runs RANSAC/MSAC over `n` data with minimal samples of `sample_size`.
+///
+/// `fit(sample, models)` appends the models of one minimal sample (none if degenerate, several
+/// for multi-solution solvers); `residual_sq(model, i)` is the squared residual of datum `i`;
+/// `threshold_sq` is `T^2`. Deterministic for a given `seed`.
+pub fn ransac<M: Clone>(
+    n: usize,
+    sample_size: usize,
+    threshold_sq: f64,
+    config: &RansacConfig,
+    seed: u64,
+    mut fit: impl FnMut(&[usize], &mut Vec<M>),
+    residual_sq: impl Fn(&M, usize) -> f64,
+) -> RansacOutcome<M> {
+    let mut rng = SplitMix64::new(seed);
+    let mut sample = vec![0usize; sample_size];
+    let mut models = Vec::new();
+    let mut best = RansacOutcome {
+        model: None,
+        inliers: vec![false; n],
+        inlier_count: 0,
+        cost: f64::INFINITY,
+        iterations: 0,
+    };
+    if n < sample_size || sample_size == 0 {
+        return best;
+    }
+    let mut needed = config.max_iterations.max(config.min_iterations);
+    let mut it = 0;
+    while it < needed {
+        it += 1;
+        if !rng.distinct(n, &mut sample) {
+            break;
+        }
+        models.clear();
+        fit(&sample, &mut models);
+        for m in &models {
+            let mut cost = 0.0;
+            for i in 0..n {
+                let r2 = residual_sq(m, i);
+                cost += if r2 <= threshold_sq { r2 } else { threshold_sq };
+                if cost >= best.cost {
+                    break;
+                }
+            }
+            if cost < best.cost {
+                let mut count = 0;
+                for (i, flag) in best.inliers.iter_mut().enumerate() {
+                    *flag = residual_sq(m, i) <= threshold_sq;
+                    count += usize::from(*flag);
+                }
+                best.cost = cost;
+                best.inlier_count = count;
+                best.model = Some(m.clone());
+                needed = required_iterations(config, count as f64 / n as f64, sample_size);
+            }
+        }
+    }
+    best.iterations = it;
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn iteration_bound_follows_hartley_zisserman_4_18() {
+        let c = RansacConfig {
+            confidence: 0.99,
+            min_iterations: 1,
+            max_iterations: 100_000,
+        };
+        // H&Z table 4.3: s = 5, 50% outliers -> 146; s = 3, 30% -> 11.
+        assert_eq!(required_iterations(&c, 0.5, 5), 146);
+        assert_eq!(required_iterations(&c, 0.7, 3), 11);
+        assert_eq!(required_iterations(&c, 0.0, 3), 100_000);
+        assert_eq!(required_iterations(&c, f64::NAN, 3), 100_000);
+        assert_eq!(required_iterations(&c, 1.0, 3), 1);
+    }
+
+    #[test]
+    fn splitmix_is_reproducible_and_samples_are_distinct() {
+        let mut a = SplitMix64::new(42);
+        let mut b = SplitMix64::new(42);
+        for _ in 0..100 {
+            assert_eq!(a.next_u64(), b.next_u64());
+        }
+        let mut out = [0usize; 5];
+        assert!(!a.distinct(4, &mut out));
+        for _ in 0..1000 {
+            assert!(a.distinct(7, &mut out));
+            for (i, x) in out.iter().enumerate() {
+                assert!(*x < 7);
+                assert!(!out[..i].contains(x));
+            }
+        }
+        let u = a.unit_f64();
+        assert!((0.0..1.0).contains(&u));
+    }
+
+    /// A 1D location model: RANSAC keeps the cluster and rejects the outliers.
+    #[test]
+    fn ransac_finds_the_majority_cluster() {
+        let data: Vec<f64> = (0..100)
+            .map(|i| {
+                if i % 3 == 0 {
+                    50.0 + f64::from(i)
+                } else {
+                    1.0 + 1e-3 * f64::from(i % 7)
+                }
+            })
+            .collect();
+        let out = ransac(
+            data.len(),
+            1,
+            0.01 * 0.01,
+            &RansacConfig::default(),
+            9,
+            |s, m| m.extend(s.iter().filter_map(|&i| data.get(i).copied())),
+            |m, i| data.get(i).map_or(f64::INFINITY, |x| (x - m).powi(2)),
+        );
+        assert_eq!(out.inlier_count, 66);
+        assert!(out.model.is_some_and(|m| (m - 1.0).abs() < 0.01));
+        assert!(out.iterations >= RansacConfig::default().min_iterations);
+    }
+}
