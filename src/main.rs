@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod cmd;
+mod import;
 
 /// Substation grounding-rod robot: log-centric hand-eye self-calibration and tasks.
 #[derive(Debug, Parser)]
@@ -27,6 +28,9 @@ enum Command {
     /// Calibration tools: hand-eye from pose files.
     #[command(subcommand)]
     Calib(cmd::calib::CalibCommand),
+    /// Import a dataset on disk as a recording.
+    #[command(subcommand)]
+    Import(cmd::import::ImportCommand),
 }
 
 fn main() -> ExitCode {
@@ -36,6 +40,7 @@ fn main() -> ExitCode {
         Command::Record(args) => cmd::record::run(&args),
         Command::Replay(args) => cmd::replay::run(&args),
         Command::Calib(command) => cmd::calib::run(&command),
+        Command::Import(command) => cmd::import::run(&command),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
