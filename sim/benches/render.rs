@@ -1,0 +1,79 @@
+//! One RGB-D capture of the substation from a typical wrist pose (calibration cabinet at
+//! ~0.45 m, noon, shadows and antialiasing on), at 1280x1024 and the 320x256 test preset,
+//! plus the panoramic camera and the per-camera ray-table build.
+//!
+//! `cargo bench -p sim --bench render -- --warm-up-time 2 --measurement-time 10`
+
+use std::hint::black_box;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use nalgebra::Vector3;
+use sim::render::{
+    CameraIntrinsics, LightConditions, RayTable, SensorParams, render_rgbd_with_rays,
+    world_from_camera_looking_at,
+};
+use sim::scene::SubstationBuilder;
+
+fn bench(c: &mut Criterion) {
+    let Ok((scene, layout)) = SubstationBuilder::new(1).build() else {
+        return;
+    };
+    let target = layout.calibration_target_center;
+    let eye = target + layout.calibration_target_normal * 0.45 + Vector3::new(0.0, 0.08, 0.12);
+    let Some(pose) = world_from_camera_looking_at(
+        &eye,
+        &(target + Vector3::new(0.0, 0.0, 0.25)),
+        &Vector3::z(),
+    ) else {
+        return;
+    };
+    let light = LightConditions::from_hour(12.0);
+    let mut group = c.benchmark_group("render_rgbd");
+    group.sample_size(10);
+    for (name, k) in [
+        ("wrist_1280x1024", Ok(CameraIntrinsics::wrist())),
+        ("wrist_320x256", CameraIntrinsics::wrist().scaled(0.25)),
+    ] {
+        let Ok(k) = k else { continue };
+        let Ok(rays) = RayTable::new(&k) else {
+            continue;
+        };
+        let sensor = SensorParams::wrist();
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                black_box(render_rgbd_with_rays(
+                    &scene,
+                    &pose,
+                    &rays,
+                    &light,
+                    &sensor,
+                    black_box(7),
+                ))
+            });
+        });
+    }
+    let pano = CameraIntrinsics::panoramic();
+    if let Ok(rays) = RayTable::new(&pano) {
+        let spot = layout.world_from_robot_spot.translation.vector;
+        let eye = nalgebra::Point3::new(spot.x, spot.y, 1.4);
+        if let Some(pose) =
+            world_from_camera_looking_at(&eye, &nalgebra::Point3::new(0.0, 0.0, 5.0), &Vector3::z())
+        {
+            let sensor = SensorParams::panoramic();
+            group.bench_function("panoramic_640x360", |b| {
+                b.iter(|| {
+                    black_box(render_rgbd_with_rays(
+                        &scene, &pose, &rays, &light, &sensor, 7,
+                    ))
+                });
+            });
+        }
+    }
+    group.bench_function("ray_table_1280x1024", |b| {
+        b.iter(|| black_box(RayTable::new(&CameraIntrinsics::wrist())));
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

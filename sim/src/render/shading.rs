@@ -1,0 +1,215 @@
+//! Radiance of a surface point under sun and sky.
+//!
+//! `L = rho / pi (E_sun max(0, n.l) V c_sun + E_sky (1 + n_z) / 2 c_sky(n) + E_gnd (1 - n_z) / 2 c_gnd)
+//!      + k_s (e + 8) / (8 pi) (n.h)^e E_sun max(0, n.l) V c_sun`
+//!
+//! Lambertian diffuse (albedo `rho`) lit by the sun (visibility `V` from one shadow ray), the
+//! sky dome as the cosine-weighted hemisphere term `(1 + n_z) / 2` (isotropic sky) and light
+//! bounced off the ground (albedo [`GROUND_BOUNCE_ALBEDO`]) from below; glossy and metallic
+//! materials add an energy-normalised Blinn-Phong lobe (Akenine-Moller et al., *Real-Time
+//! Rendering* 4th ed., eq. 9.xx family) and a mirror reflection of the sky. Units: the output
+//! is luminance-like radiance in cd/m^2 per linear RGB channel, illuminance in lux.
+
+use nalgebra::{Point3, Vector3};
+
+use super::depth_sensor::DepthSample;
+use super::light::{LightConditions, luminance};
+use crate::scene::{Hit, Ray, Scene, Shading};
+
+/// Albedo of the surroundings bouncing light up onto downward-facing surfaces.
+pub const GROUND_BOUNCE_ALBEDO: f64 = 0.2;
+/// Offset of shadow-ray origins along the normal (m).
+pub const SHADOW_BIAS_M: f64 = 2e-5;
+
+/// Per-capture lighting constants.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSetup {
+    /// Conditions.
+    pub light: LightConditions,
+    sun_dir: Vector3<f64>,
+    sun_rgb: [f64; 3],
+    e_sun: f64,
+    e_sky: f64,
+    e_ground: f64,
+    shadows: bool,
+}
+
+impl LightSetup {
+    /// Precomputes the constants; `shadows` enables shadow rays.
+    #[must_use]
+    pub fn new(light: &LightConditions, shadows: bool) -> Self {
+        // A sun contributing under 0.1 % of the global illuminance (at the horizon) casts no
+        // shadow rays: they would be long, grazing and pointless.
+        let e_sun = if light.sun_direction.z > 0.0
+            && light.sun_normal_lux > 1e-3 * light.horizontal_lux()
+        {
+            light.sun_normal_lux
+        } else {
+            0.0
+        };
+        Self {
+            light: *light,
+            sun_dir: light.sun_direction,
+            sun_rgb: light.sun_rgb,
+            e_sun,
+            e_sky: light.sky_horizontal_lux,
+            e_ground: GROUND_BOUNCE_ALBEDO * light.horizontal_lux(),
+            shadows,
+        }
+    }
+}
+
+/// Result of shading one ray.
+#[derive(Clone, Copy, Debug)]
+pub struct Shaded {
+    /// Radiance (cd/m^2, linear RGB).
+    pub radiance: [f32; 3],
+    /// Hashed primitive key (edge detection); `u32::MAX` for the sky.
+    pub key: u32,
+    /// Depth-relevant attributes (`z_m` filled by the caller).
+    pub depth: Option<DepthSample>,
+    /// Distance along the ray (m), infinite for the sky.
+    pub t_m: f64,
+}
+
+const INV_PI: f64 = std::f64::consts::FRAC_1_PI;
+
+/// Primitives hit by the previous primary and shadow rays of a run of neighbouring pixels
+/// (see [`Scene::intersect_hinted`]); they speed tracing up without changing its result.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TraceHints {
+    primary: Option<Hit>,
+    shadow: Option<Hit>,
+}
+
+/// Traces and shades one ray. `footprint_per_m` is the pixel footprint per metre of distance
+/// (radians per pixel).
+#[must_use]
+pub fn trace(
+    scene: &Scene,
+    setup: &LightSetup,
+    ray: &Ray,
+    footprint_per_m: f64,
+    hints: &mut TraceHints,
+) -> Shaded {
+    let found = scene.intersect_hinted(ray, 0.0, f64::INFINITY, hints.primary);
+    if found.is_some() {
+        hints.primary = found;
+    }
+    let Some(hit) = found else {
+        let s = setup.light.sky_radiance(&ray.dir);
+        return Shaded {
+            radiance: [s[0] as f32, s[1] as f32, s[2] as f32],
+            key: u32::MAX,
+            depth: None,
+            t_m: f64::INFINITY,
+        };
+    };
+    shade_hit(scene, setup, ray, &hit, footprint_per_m, &mut hints.shadow)
+}
+
+fn shade_hit(
+    scene: &Scene,
+    setup: &LightSetup,
+    ray: &Ray,
+    hit: &Hit,
+    footprint_per_m: f64,
+    shadow_hint: &mut Option<Hit>,
+) -> Shaded {
+    let key =
+        crate::scene::noise::hash_u32((hit.key() ^ (hit.key() >> 29)) as u32).min(u32::MAX - 1);
+    let Some(sp) = scene.surface(ray, hit) else {
+        return Shaded {
+            radiance: [0.0; 3],
+            key,
+            depth: None,
+            t_m: hit.t_m,
+        };
+    };
+    let mut n = sp.normal;
+    let mut cos_i = -n.dot(&ray.dir);
+    if cos_i < 0.0 {
+        n = -n;
+        cos_i = -cos_i;
+    }
+    let mat = scene.material(sp.material);
+    let footprint = (hit.t_m * footprint_per_m / cos_i.max(0.2)) as f32;
+    let albedo = mat.albedo(sp.uv_m, sp.face, footprint);
+    let a = [
+        f64::from(albedo[0]),
+        f64::from(albedo[1]),
+        f64::from(albedo[2]),
+    ];
+
+    let ndl = n.dot(&setup.sun_dir);
+    let mut e_direct = 0.0;
+    if ndl > 0.0 && setup.e_sun > 0.0 {
+        let visible = !setup.shadows || {
+            let origin: Point3<f64> = sp.point + n * SHADOW_BIAS_M;
+            !scene.occluded_hinted(
+                &Ray {
+                    origin,
+                    dir: setup.sun_dir,
+                },
+                0.0,
+                f64::INFINITY,
+                shadow_hint,
+            )
+        };
+        if visible {
+            e_direct = setup.e_sun * ndl;
+        }
+    }
+    let up = n.z.clamp(-1.0, 1.0);
+    let sky_w = 0.5 + 0.5 * up;
+    let e_sky = setup.e_sky * sky_w;
+    let e_gnd = setup.e_ground * (1.0 - sky_w);
+    let t = 1.0 - up.max(0.0);
+    let l = &setup.light;
+    let mut rad = [0.0; 3];
+    for c in 0..3 {
+        let sky_c = l.sky_zenith_rgb[c] + (l.sky_horizon_rgb[c] - l.sky_zenith_rgb[c]) * t;
+        let irr = e_direct * setup.sun_rgb[c] + e_sky * sky_c + e_gnd * l.sky_horizon_rgb[c];
+        rad[c] = a[c] * INV_PI * irr;
+    }
+    let mut metal = false;
+    if let Shading::Glossy { specular, exponent } | Shading::Metal { specular, exponent } =
+        mat.shading
+    {
+        let (ks, e) = (f64::from(specular), f64::from(exponent));
+        let is_metal = matches!(mat.shading, Shading::Metal { .. });
+        metal = is_metal && ks >= 0.15;
+        let tint = |c: usize| {
+            if is_metal {
+                a[c] / luminance(a).max(1e-3)
+            } else {
+                1.0
+            }
+        };
+        let v = -ray.dir;
+        let refl = ray.dir + n * (2.0 * cos_i);
+        let sky = l.sky_radiance(&refl);
+        let hv = setup.sun_dir + v;
+        let spec = if e_direct > 0.0 && hv.norm_squared() > 1e-12 {
+            let nh = n.dot(&hv.normalize()).max(0.0);
+            ks * (e + 8.0) / (8.0 * std::f64::consts::PI) * nh.powf(e) * e_direct
+        } else {
+            0.0
+        };
+        for c in 0..3 {
+            rad[c] += tint(c) * (spec * setup.sun_rgb[c] + ks * sky[c]);
+        }
+    }
+    Shaded {
+        radiance: [rad[0] as f32, rad[1] as f32, rad[2] as f32],
+        key,
+        depth: Some(DepthSample {
+            z_m: 0.0,
+            cos_incidence: cos_i,
+            albedo: luminance(a),
+            sun_lux: e_direct,
+            metal,
+        }),
+        t_m: hit.t_m,
+    }
+}

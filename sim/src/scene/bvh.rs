@@ -1,0 +1,373 @@
+//! Bounding volume hierarchy over analytic primitives: binned SAH build, flattened nodes,
+//! allocation-free traversal.
+//!
+//! Build (Wald, "On fast construction of SAH-based BVHs", RT 2007): at each node the primitive
+//! centroids are binned into [`SAH_BINS`] bins along each axis and the split minimising
+//! `C = C_trav + (A_L N_L + A_R N_R) / A` is taken (A = surface area, N = primitive count);
+//! a node becomes a leaf when no split beats `N` (the cost of testing all its primitives) or
+//! it holds <= [`MAX_LEAF_PRIMS`]. Degenerate case: all centroids equal on every axis -> leaf.
+//!
+//! Layout: depth-first array; an interior node's left child follows it, the right child index
+//! is stored. Traversal keeps a fixed stack of [`STACK_DEPTH`] node indices on the call stack
+//! and visits the nearer child first.
+
+use super::primitives::{Aabb, Primitive, Ray};
+
+/// Number of SAH bins per axis.
+pub const SAH_BINS: usize = 12;
+/// Largest leaf.
+pub const MAX_LEAF_PRIMS: usize = 4;
+/// Traversal stack size (the build caps the depth below it).
+pub const STACK_DEPTH: usize = 64;
+/// Cost of one traversal step relative to one primitive test.
+const TRAVERSAL_COST: f64 = 1.0;
+
+/// Padding of the f32 node boxes (m): covers the f32 rounding of box corners, ray origins
+/// (world coordinates up to ~1 km) and inverse directions, so a node box never misses a
+/// primitive the exact f64 test would hit.
+const NODE_PAD_M: f64 = 2e-4;
+
+/// 32-byte node with f32 bounds (the exact tests are the primitives', in f64).
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    lo: [f32; 3],
+    /// Leaf: first primitive; interior: right child.
+    index: u32,
+    hi: [f32; 3],
+    /// Leaf: primitive count (> 0); interior: 0.
+    count: u32,
+}
+
+impl Node {
+    fn new(b: &Aabb, index: u32, count: u32) -> Self {
+        let lo = [0, 1, 2].map(|k| (b.min[k] - NODE_PAD_M) as f32);
+        let hi = [0, 1, 2].map(|k| (b.max[k] + NODE_PAD_M) as f32);
+        Self {
+            lo,
+            index,
+            hi,
+            count,
+        }
+    }
+
+    /// Slab test in f32: entry distance if the ray meets the box before `t_max`.
+    #[inline]
+    fn hit(&self, o: &[f32; 3], inv: &[f32; 3], t_max: f32) -> Option<f32> {
+        let mut t0 = 0.0_f32;
+        let mut t1 = t_max;
+        for k in 0..3 {
+            let a = (self.lo[k] - o[k]) * inv[k];
+            let b = (self.hi[k] - o[k]) * inv[k];
+            t0 = t0.max(a.min(b));
+            t1 = t1.min(a.max(b));
+        }
+        (t0 <= t1).then_some(t0)
+    }
+}
+
+/// A BVH owning its (reordered) primitives.
+#[derive(Clone, Debug, Default)]
+pub struct Bvh {
+    nodes: Vec<Node>,
+    prims: Vec<Primitive>,
+    bounds: Option<Aabb>,
+}
+
+/// Closest hit in a BVH.
+#[derive(Clone, Copy, Debug)]
+pub struct BvhHit {
+    /// Distance along the ray (m).
+    pub t_m: f64,
+    /// Index into [`Bvh::primitives`].
+    pub prim: u32,
+}
+
+impl Bvh {
+    /// Builds the hierarchy (primitives are reordered; the order is a deterministic function
+    /// of the input).
+    #[must_use]
+    pub fn build(prims: Vec<Primitive>) -> Self {
+        if prims.is_empty() {
+            return Self::default();
+        }
+        let bounds: Vec<Aabb> = prims.iter().map(|p| p.shape.bounds()).collect();
+        let centroids: Vec<[f64; 3]> = bounds.iter().map(Aabb::centroid).collect();
+        let mut order: Vec<usize> = (0..prims.len()).collect();
+        let mut nodes = Vec::with_capacity(2 * prims.len());
+        let n = prims.len();
+        let ctx = BuildCtx {
+            bounds: &bounds,
+            centroids: &centroids,
+        };
+        ctx.build(&mut nodes, &mut order, 0, n, 0);
+        let mut all = Aabb::EMPTY;
+        for b in &bounds {
+            all.grow(b);
+        }
+        Self {
+            nodes,
+            prims: reorder(prims, &order),
+            bounds: Some(all),
+        }
+    }
+
+    /// The (reordered) primitives.
+    #[must_use]
+    pub fn primitives(&self) -> &[Primitive] {
+        &self.prims
+    }
+
+    /// Bounds of everything (empty box for an empty BVH).
+    #[must_use]
+    pub fn bounds(&self) -> Aabb {
+        self.bounds.unwrap_or(Aabb::EMPTY)
+    }
+
+    /// Number of nodes.
+    #[must_use]
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Closest hit with `t` in `(t_min, t_max)`.
+    #[inline]
+    #[must_use]
+    pub fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<BvhHit> {
+        let mut best: Option<BvhHit> = None;
+        let mut t_best = t_max;
+        self.traverse(
+            ray,
+            &mut t_best,
+            |prim, t_hi| {
+                let p = self.prims.get(prim as usize)?;
+                let t = p.shape.intersect(ray, t_min, t_hi)?;
+                best = Some(BvhHit { t_m: t, prim });
+                Some(t)
+            },
+            false,
+        );
+        best
+    }
+
+    /// Whether anything is hit with `t` in `(t_min, t_max)` (any-hit, for shadows).
+    #[inline]
+    #[must_use]
+    pub fn occluded(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
+        self.occluder(ray, t_min, t_max).is_some()
+    }
+
+    /// Some primitive hit with `t` in `(t_min, t_max)` (the first found, any-hit).
+    #[inline]
+    #[must_use]
+    pub fn occluder(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<u32> {
+        let mut t = t_max;
+        let mut hit = None;
+        self.traverse(
+            ray,
+            &mut t,
+            |prim, t_hi| {
+                let p = self.prims.get(prim as usize)?;
+                let th = p.shape.intersect(ray, t_min, t_hi)?;
+                hit = Some(prim);
+                Some(th)
+            },
+            true,
+        );
+        hit
+    }
+
+    #[inline]
+    fn traverse(
+        &self,
+        ray: &Ray,
+        t_best: &mut f64,
+        mut test: impl FnMut(u32, f64) -> Option<f64>,
+        any_hit: bool,
+    ) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let o = [
+            ray.origin.x as f32,
+            ray.origin.y as f32,
+            ray.origin.z as f32,
+        ];
+        let inv = [
+            (1.0 / ray.dir.x) as f32,
+            (1.0 / ray.dir.y) as f32,
+            (1.0 / ray.dir.z) as f32,
+        ];
+        // Stack of (node, entry distance): nodes farther than the best hit found since they
+        // were pushed are skipped when popped.
+        let mut stack = [(0u32, 0.0f32); STACK_DEPTH];
+        let mut sp = 0usize;
+        let mut ni = 0usize;
+        if self.nodes[0].hit(&o, &inv, *t_best as f32).is_none() {
+            return;
+        }
+        loop {
+            let node = self.nodes[ni];
+            if node.count > 0 {
+                for k in node.index..node.index + node.count {
+                    if let Some(t) = test(k, *t_best) {
+                        *t_best = t;
+                        if any_hit {
+                            return;
+                        }
+                    }
+                }
+            } else {
+                let (l, r) = (ni + 1, node.index as usize);
+                let hl = self.nodes[l].hit(&o, &inv, *t_best as f32);
+                let hr = self.nodes[r].hit(&o, &inv, *t_best as f32);
+                match (hl, hr) {
+                    (Some(a), Some(b)) => {
+                        let (near, far, t_far) = if a <= b { (l, r, b) } else { (r, l, a) };
+                        if sp < STACK_DEPTH {
+                            stack[sp] = (far as u32, t_far);
+                            sp += 1;
+                        }
+                        ni = near;
+                        continue;
+                    }
+                    (Some(_), None) => {
+                        ni = l;
+                        continue;
+                    }
+                    (None, Some(_)) => {
+                        ni = r;
+                        continue;
+                    }
+                    (None, None) => {}
+                }
+            }
+            loop {
+                if sp == 0 {
+                    return;
+                }
+                sp -= 1;
+                let (n, t_entry) = stack[sp];
+                if f64::from(t_entry) <= *t_best {
+                    ni = n as usize;
+                    break;
+                }
+            }
+        }
+    }
+}
+
+struct BuildCtx<'a> {
+    bounds: &'a [Aabb],
+    centroids: &'a [[f64; 3]],
+}
+
+impl BuildCtx<'_> {
+    /// Builds the subtree over `order[start..end]`, returns its node index.
+    fn build(
+        &self,
+        nodes: &mut Vec<Node>,
+        order: &mut [usize],
+        start: usize,
+        end: usize,
+        depth: usize,
+    ) -> usize {
+        let ni = nodes.len();
+        let mut nb = Aabb::EMPTY;
+        let mut cb = Aabb::EMPTY;
+        for &i in &order[start..end] {
+            nb.grow(&self.bounds[i]);
+            cb.grow_point(self.centroids[i]);
+        }
+        let n = end - start;
+        nodes.push(Node::new(&nb, start as u32, n as u32));
+        if n <= MAX_LEAF_PRIMS || depth + 2 >= STACK_DEPTH {
+            return ni;
+        }
+        let Some((axis, pos)) =
+            best_split(&order[start..end], self.bounds, self.centroids, &cb, &nb)
+        else {
+            return ni;
+        };
+        // Stable partition by centroid, so the layout is a deterministic function of the input.
+        let (mut left, mut right): (Vec<usize>, Vec<usize>) = order[start..end]
+            .iter()
+            .partition(|&&i| self.centroids[i][axis] < pos);
+        if left.is_empty() || right.is_empty() {
+            let mut all = order[start..end].to_vec();
+            all.sort_by(|&a, &b| self.centroids[a][axis].total_cmp(&self.centroids[b][axis]));
+            right = all.split_off(n / 2);
+            left = all;
+        }
+        let mid = start + left.len();
+        order[start..mid].copy_from_slice(&left);
+        order[mid..end].copy_from_slice(&right);
+        let _left = self.build(nodes, order, start, mid, depth + 1);
+        let r = self.build(nodes, order, mid, end, depth + 1);
+        nodes[ni].index = r as u32;
+        nodes[ni].count = 0;
+        ni
+    }
+}
+
+fn reorder(prims: Vec<Primitive>, order: &[usize]) -> Vec<Primitive> {
+    let mut slots: Vec<Option<Primitive>> = prims.into_iter().map(Some).collect();
+    order
+        .iter()
+        .filter_map(|&i| slots.get_mut(i).and_then(Option::take))
+        .collect()
+}
+
+/// Binned SAH split `(axis, position)`, or `None` when a leaf is cheaper.
+// `axis` indexes several per-axis arrays at once; an iterator would obscure that.
+#[allow(clippy::needless_range_loop)]
+fn best_split(
+    idx: &[usize],
+    bounds: &[Aabb],
+    centroids: &[[f64; 3]],
+    cb: &Aabb,
+    nb: &Aabb,
+) -> Option<(usize, f64)> {
+    let parent_area = nb.area().max(1e-300);
+    let mut best_cost = idx.len() as f64;
+    let mut best = None;
+    for axis in 0..3 {
+        let (lo, hi) = (cb.min[axis], cb.max[axis]);
+        if hi - lo <= 1e-12 {
+            continue;
+        }
+        let scale = SAH_BINS as f64 / (hi - lo);
+        let mut bin_box = [Aabb::EMPTY; SAH_BINS];
+        let mut bin_n = [0usize; SAH_BINS];
+        for &i in idx {
+            let b = (((centroids[i][axis] - lo) * scale) as usize).min(SAH_BINS - 1);
+            bin_box[b].grow(&bounds[i]);
+            bin_n[b] += 1;
+        }
+        let mut right_area = [0.0; SAH_BINS];
+        let mut right_n = [0usize; SAH_BINS];
+        let mut acc = Aabb::EMPTY;
+        let mut n = 0;
+        for b in (1..SAH_BINS).rev() {
+            acc.grow(&bin_box[b]);
+            n += bin_n[b];
+            right_area[b] = acc.area();
+            right_n[b] = n;
+        }
+        let mut acc = Aabb::EMPTY;
+        let mut n = 0;
+        for b in 0..SAH_BINS - 1 {
+            acc.grow(&bin_box[b]);
+            n += bin_n[b];
+            if n == 0 || right_n[b + 1] == 0 {
+                continue;
+            }
+            let cost = TRAVERSAL_COST
+                + (acc.area() * n as f64 + right_area[b + 1] * right_n[b + 1] as f64) / parent_area;
+            if cost < best_cost {
+                best_cost = cost;
+                best = Some((axis, lo + (b + 1) as f64 / scale));
+            }
+        }
+    }
+    best
+}

@@ -1,0 +1,1006 @@
+//! A deterministic substation bay built from a seed.
+//!
+//! Layout (world = `map`, x east along the conductors, y north, z up, metres; defaults of
+//! [`SubstationParams`]):
+//!
+//! * two lattice-steel gantries at `x = 0` and `x = span_m`, each two square lattice columns
+//!   (corner angles, horizontals, alternating diagonals) at `y = +-gantry_half_width_m` and a
+//!   lattice beam across the top, on concrete foundations;
+//! * three phases at `y = -phase_spacing_m, 0, +phase_spacing_m`, each a tension insulator
+//!   string (repetitive discs at 146 mm pitch) hanging from each beam down to an attachment
+//!   point, and a 26.8 mm conductor between the two attachment points as a chain of
+//!   cylinders sampled from the analytic [`Catenary`] (chord deviation < 0.2 mm); every
+//!   conductor is a movable object (rigid sway about its chord);
+//! * disconnect switches on galvanised pedestals (post insulators with sheds) near both
+//!   gantries, equipment boxes (a kiosk with labels and louvres, a nearly textureless
+//!   box, marshalling boxes) placed from the seed;
+//! * next to the robot's working spot (below the middle phase, mid-span): a control cabinet
+//!   with bolted doors, labels and vents, a cable tray and a junction box (the
+//!   calibration scene, textured at the 1-5 mm scale), the rod rack and the grounding rod;
+//! * gravel ground (plane `z = 0`) and a concrete road strip.
+//!
+//! The seed changes textures, rust, labels and the placement and number of equipment boxes;
+//! the structures the robot works with (gantries, conductors, cabinet, rack) stay where the
+//! [`SubstationLayout`] says.
+
+use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
+
+use super::catenary::{CONDUCTOR_DIAMETER_M, Catenary, CatenaryError};
+use super::grounding_rod::{self, rack_from_rod};
+use super::noise::{hash_u32, unit_f32};
+use super::primitives::{Primitive, Shape, perpendicular};
+use super::textures::{Material, Shading, Texture};
+use super::{MaterialId, ObjectId, Scene, SceneBuilder, SceneError};
+
+/// Errors of the substation builder.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum SubstationError {
+    /// Scene validation failed.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// The conductor geometry is impossible.
+    #[error(transparent)]
+    Catenary(#[from] CatenaryError),
+    /// A parameter is out of its accepted range.
+    #[error("parameter {name} = {value} is outside [{min}, {max}]")]
+    Parameter {
+        /// Name of the field.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+        /// Smallest accepted value.
+        min: f64,
+        /// Largest accepted value.
+        max: f64,
+    },
+}
+
+/// Geometry parameters of the bay.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SubstationParams {
+    /// Distance between the two gantries along x (m). Default 24.
+    pub span_m: f64,
+    /// Gantry height (top of the beam, m). Default 8.5.
+    pub gantry_height_m: f64,
+    /// Distance between phases along y (m). Default 4.5.
+    pub phase_spacing_m: f64,
+    /// Height of the conductor attachment points (end of the insulator strings, m). Default 6.2.
+    pub attach_height_m: f64,
+    /// Horizontal length of each tension insulator string (m). Default 2.6.
+    pub string_length_m: f64,
+    /// Mid-span sag of the conductors below their chord (m). Default 0.9.
+    pub sag_m: f64,
+    /// Lateral offset of the robot's working spot from the middle phase (m, towards -y).
+    /// Default 1.3.
+    pub robot_offset_m: f64,
+}
+
+impl Default for SubstationParams {
+    fn default() -> Self {
+        Self {
+            span_m: 24.0,
+            gantry_height_m: 8.5,
+            phase_spacing_m: 4.5,
+            attach_height_m: 6.2,
+            string_length_m: 2.6,
+            sag_m: 0.9,
+            robot_offset_m: 1.3,
+        }
+    }
+}
+
+/// Where things are (ground truth for the world and for scoring).
+#[derive(Clone, Debug)]
+pub struct SubstationLayout {
+    /// Parameters used.
+    pub params: SubstationParams,
+    /// Analytic axis of each phase's conductor at rest, ordered by y (index 1 = the middle
+    /// phase the robot works on).
+    pub conductors: Vec<Catenary>,
+    /// Object ids of the conductors (same order).
+    pub conductor_objects: Vec<ObjectId>,
+    /// Index into `conductors` of the phase to ground.
+    pub target_phase: usize,
+    /// Suggested `world_from_base` of the robot's working spot (on the ground, x forward
+    /// towards +y = towards the target conductor).
+    pub world_from_robot_spot: Isometry3<f64>,
+    /// Centre of the calibration cabinet's front face (m).
+    pub calibration_target_center: Point3<f64>,
+    /// Outward unit normal of that face.
+    pub calibration_target_normal: Vector3<f64>,
+    /// Pose of the rod rack.
+    pub world_from_rack: Isometry3<f64>,
+    /// Pose of the stored rod (`world_from_rack * rack_from_rod`).
+    pub world_from_rod_stored: Isometry3<f64>,
+    /// The rod's object id.
+    pub rod_object: ObjectId,
+}
+
+impl SubstationLayout {
+    /// The conductor the robot works on.
+    #[must_use]
+    pub fn target_conductor(&self) -> Option<&Catenary> {
+        self.conductors.get(self.target_phase)
+    }
+}
+
+/// Builds the bay from a seed.
+#[derive(Clone, Debug)]
+pub struct SubstationBuilder {
+    seed: u64,
+    params: SubstationParams,
+}
+
+/// Deterministic stream of uniforms from the seed.
+struct Dice {
+    state: u32,
+}
+
+impl Dice {
+    fn next(&mut self) -> f64 {
+        self.state = hash_u32(self.state.wrapping_add(0x9e37_79b9));
+        f64::from(unit_f32(self.state))
+    }
+    fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.next()
+    }
+    fn seed(&mut self) -> u32 {
+        self.state = hash_u32(self.state.wrapping_add(0x7f4a_7c15));
+        self.state
+    }
+}
+
+struct Mats {
+    steel: MaterialId,
+    porcelain: MaterialId,
+    glass: MaterialId,
+    cap: MaterialId,
+    conductor: MaterialId,
+    concrete: MaterialId,
+    road: MaterialId,
+    pedestal: MaterialId,
+    kiosk: MaterialId,
+    plain_box: MaterialId,
+    label_white: MaterialId,
+    label_yellow: MaterialId,
+    louvres: MaterialId,
+    bolted: MaterialId,
+    cabinet: MaterialId,
+    door: MaterialId,
+    tray: MaterialId,
+    dark: MaterialId,
+    hazard: MaterialId,
+    rusty: MaterialId,
+}
+
+impl SubstationBuilder {
+    /// Builder with default parameters.
+    #[must_use]
+    pub fn new(seed: u64) -> Self {
+        Self {
+            seed,
+            params: SubstationParams::default(),
+        }
+    }
+
+    /// Replaces the parameters.
+    #[must_use]
+    pub fn params(mut self, params: SubstationParams) -> Self {
+        self.params = params;
+        self
+    }
+
+    /// Builds the scene and its layout.
+    ///
+    /// # Errors
+    /// [`SubstationError::Parameter`] for out-of-range parameters, and scene or catenary
+    /// errors.
+    pub fn build(self) -> Result<(Scene, SubstationLayout), SubstationError> {
+        let p = self.params;
+        check("span_m", p.span_m, 10.0, 80.0)?;
+        check("gantry_height_m", p.gantry_height_m, 4.0, 30.0)?;
+        check("phase_spacing_m", p.phase_spacing_m, 2.0, 15.0)?;
+        check(
+            "attach_height_m",
+            p.attach_height_m,
+            2.0,
+            p.gantry_height_m - 0.8,
+        )?;
+        check("string_length_m", p.string_length_m, 0.8, p.span_m / 4.0)?;
+        check(
+            "robot_offset_m",
+            p.robot_offset_m,
+            0.5,
+            p.phase_spacing_m - 0.5,
+        )?;
+        let mut dice = Dice {
+            state: hash_u32((self.seed as u32) ^ hash_u32((self.seed >> 32) as u32)),
+        };
+        let mut b = SceneBuilder::new();
+        let m = materials(&mut b, &mut dice);
+        let gravel = b.material(
+            Material::matte(
+                [0.32, 0.3, 0.27],
+                Texture::Gravel { stone_m: 0.022 },
+                dice.seed(),
+            )
+            .with_accent([0.2, 0.18, 0.16]),
+        );
+        b.ground(0.0, gravel);
+
+        // Road strip along x, south of the robot spot.
+        let y_robot = -p.robot_offset_m;
+        // (Slabs of 3 m: one long box would give the BVH a node spanning the whole bay.)
+        let (x0, x1) = (-6.0, p.span_m + 6.0);
+        let slabs = ((x1 - x0) / 3.0).ceil() as usize;
+        let slab = (x1 - x0) / slabs as f64;
+        for i in 0..slabs {
+            let xc = x0 + slab * (i as f64 + 0.5);
+            b.add(
+                abox([xc, y_robot - 2.6, 0.0], [slab / 2.0 - 0.005, 1.2, 0.02]),
+                m.road,
+            );
+        }
+
+        // Gantries.
+        let half_w = 1.5 * p.phase_spacing_m + 1.2;
+        for xg in [0.0, p.span_m] {
+            for yc in [-half_w, half_w] {
+                lattice_column(
+                    &mut b,
+                    m.steel,
+                    m.concrete,
+                    [xg, yc],
+                    0.36,
+                    p.gantry_height_m,
+                );
+            }
+            lattice_beam(
+                &mut b,
+                m.steel,
+                xg,
+                -half_w,
+                half_w,
+                p.gantry_height_m - 0.72,
+                0.36,
+            );
+        }
+
+        // Phases: insulator strings and conductors.
+        let mut conductors = Vec::new();
+        let mut conductor_objects = Vec::new();
+        for (k, yp) in [-p.phase_spacing_m, 0.0, p.phase_spacing_m]
+            .into_iter()
+            .enumerate()
+        {
+            let top = p.gantry_height_m - 0.72;
+            let a0 = Point3::new(p.string_length_m, yp, p.attach_height_m);
+            let a1 = Point3::new(p.span_m - p.string_length_m, yp, p.attach_height_m);
+            let disc = if k == 1 { m.glass } else { m.porcelain };
+            insulator_string(&mut b, disc, m.cap, Point3::new(0.0, yp, top), a0);
+            insulator_string(&mut b, disc, m.cap, Point3::new(p.span_m, yp, top), a1);
+            let cat = Catenary::new(a0, a1, p.sag_m)?;
+            let segs = (cat.span_m() / 0.2).ceil() as usize;
+            let pts = cat.polyline(segs);
+            let mut prims = Vec::with_capacity(segs);
+            for w in pts.windows(2) {
+                if let [s, e] = w {
+                    let d = e - s;
+                    prims.push(Primitive {
+                        shape: Shape::Cylinder {
+                            base: *s,
+                            axis: d.normalize(),
+                            length_m: d.norm(),
+                            radius_m: CONDUCTOR_DIAMETER_M / 2.0,
+                        },
+                        material: m.conductor,
+                    });
+                }
+            }
+            let name = ["conductor_south", "conductor_middle", "conductor_north"][k];
+            conductor_objects.push(b.object(name, prims, Isometry3::identity()));
+            conductors.push(cat);
+        }
+
+        // Disconnect switches on pedestals near each gantry.
+        for (k, yp) in [-p.phase_spacing_m, 0.0, p.phase_spacing_m]
+            .into_iter()
+            .enumerate()
+        {
+            for xs in [3.2, p.span_m - 4.7] {
+                let x = xs + dice.range(-0.1, 0.1);
+                let disc = if k == 1 { m.porcelain } else { m.glass };
+                disconnect_switch(&mut b, &m, disc, x, yp);
+            }
+        }
+
+        // Equipment boxes (seeded placement along the north side).
+        kiosk(
+            &mut b,
+            &m,
+            Point3::new(p.span_m * 0.5 + dice.range(-3.0, 3.0), half_w + 3.0, 0.0),
+            &mut dice,
+        );
+        let n_boxes = 3 + (dice.next() * 3.0) as usize;
+        for i in 0..n_boxes {
+            let x = p.span_m * (i as f64 + 0.5) / n_boxes as f64 + dice.range(-1.0, 1.0);
+            let y = half_w + dice.range(-1.8, -0.6);
+            let mat = if i % 2 == 0 { m.plain_box } else { m.kiosk };
+            marshalling_box(
+                &mut b,
+                &m,
+                mat,
+                Point3::new(x, y, 0.0),
+                dice.range(0.4, 0.8),
+            );
+        }
+        // A nearly textureless big box (transformer-like) on the south side.
+        b.add(
+            abox([p.span_m * 0.3, -half_w - 3.5, 1.3], [1.6, 1.2, 1.3]),
+            m.plain_box,
+        );
+        b.add(
+            abox([p.span_m * 0.3, -half_w - 3.5, 0.1], [1.9, 1.5, 0.1]),
+            m.concrete,
+        );
+
+        // Calibration scene next to the robot spot, the rack and the rod.
+        let x_robot = p.span_m / 2.0;
+        let world_from_robot_spot = Isometry3::from_parts(
+            Translation3::new(x_robot, y_robot, 0.0),
+            UnitQuaternion::from_axis_angle(&Vector3::z_axis(), std::f64::consts::FRAC_PI_2),
+        );
+        let (calib_center, calib_normal) =
+            calibration_cabinet(&mut b, &m, x_robot + 1.35, y_robot, &mut dice);
+        let world_from_rack = Isometry3::from_parts(
+            Translation3::new(x_robot - 1.1, y_robot - 0.9, 0.0),
+            UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 0.3),
+        );
+        grounding_rod::add_rack(&mut b, &world_from_rack);
+        let world_from_rod_stored = world_from_rack * rack_from_rod();
+        let rod_object = grounding_rod::add_rod(&mut b, world_from_rod_stored);
+
+        let scene = b.build()?;
+        let layout = SubstationLayout {
+            params: p,
+            conductors,
+            conductor_objects,
+            target_phase: 1,
+            world_from_robot_spot,
+            calibration_target_center: calib_center,
+            calibration_target_normal: calib_normal,
+            world_from_rack,
+            world_from_rod_stored,
+            rod_object,
+        };
+        Ok((scene, layout))
+    }
+}
+
+fn check(name: &'static str, value: f64, min: f64, max: f64) -> Result<(), SubstationError> {
+    if value.is_finite() && (min..=max).contains(&value) {
+        Ok(())
+    } else {
+        Err(SubstationError::Parameter {
+            name,
+            value,
+            min,
+            max,
+        })
+    }
+}
+
+fn materials(b: &mut SceneBuilder, d: &mut Dice) -> Mats {
+    let gloss = |s: f32, e: f32| Shading::Glossy {
+        specular: s,
+        exponent: e,
+    };
+    Mats {
+        steel: b.material(
+            Material::matte([0.42, 0.43, 0.42], Texture::Galvanized, d.seed()).with_shading(
+                Shading::Metal {
+                    specular: 0.12,
+                    exponent: 12.0,
+                },
+            ),
+        ),
+        porcelain: b.material(
+            Material::matte([0.28, 0.12, 0.05], Texture::Porcelain, d.seed())
+                .with_shading(gloss(0.25, 60.0)),
+        ),
+        glass: b.material(
+            Material::matte([0.16, 0.26, 0.2], Texture::Porcelain, d.seed())
+                .with_shading(gloss(0.35, 90.0)),
+        ),
+        cap: b.material(Material::matte(
+            [0.5, 0.5, 0.48],
+            Texture::Galvanized,
+            d.seed(),
+        )),
+        conductor: b.material(
+            Material::matte(
+                [0.5, 0.5, 0.5],
+                Texture::Strands { pitch_m: 0.0045 },
+                d.seed(),
+            )
+            .with_shading(Shading::Metal {
+                specular: 0.2,
+                exponent: 18.0,
+            }),
+        ),
+        concrete: b.material(Material::matte(
+            [0.45, 0.44, 0.41],
+            Texture::Concrete,
+            d.seed(),
+        )),
+        road: b.material(Material::matte(
+            [0.36, 0.35, 0.33],
+            Texture::Concrete,
+            d.seed(),
+        )),
+        pedestal: b.material(Material::matte(
+            [0.47, 0.48, 0.47],
+            Texture::Galvanized,
+            d.seed(),
+        )),
+        kiosk: b.material(
+            Material::matte(
+                [0.42, 0.46, 0.4],
+                Texture::Painted {
+                    grime: 0.06,
+                    rust: d.range(0.1, 0.5) as f32,
+                },
+                d.seed(),
+            )
+            .with_shading(gloss(0.05, 25.0)),
+        ),
+        plain_box: b.material(
+            Material::matte(
+                [0.5, 0.52, 0.5],
+                Texture::Painted {
+                    grime: 0.015,
+                    rust: 0.0,
+                },
+                d.seed(),
+            )
+            .with_shading(gloss(0.04, 20.0)),
+        ),
+        label_white: b.material(
+            Material::matte(
+                [0.75, 0.75, 0.72],
+                Texture::Label { glyph_m: 0.011 },
+                d.seed(),
+            )
+            .with_accent([0.03, 0.03, 0.04]),
+        ),
+        label_yellow: b.material(
+            Material::matte(
+                [0.75, 0.6, 0.03],
+                Texture::Label { glyph_m: 0.016 },
+                d.seed(),
+            )
+            .with_accent([0.02, 0.02, 0.02]),
+        ),
+        louvres: b.material(Material::matte(
+            [0.4, 0.43, 0.38],
+            Texture::Louvres { pitch_m: 0.018 },
+            d.seed(),
+        )),
+        bolted: b.material(Material::matte(
+            [0.4, 0.42, 0.37],
+            Texture::BoltedPanel {
+                pitch_m: 0.075,
+                bolt_radius_m: 0.0075,
+            },
+            d.seed(),
+        )),
+        cabinet: b.material(
+            Material::matte(
+                [0.38, 0.42, 0.36],
+                Texture::Painted {
+                    grime: 0.08,
+                    rust: d.range(0.3, 0.6) as f32,
+                },
+                d.seed(),
+            )
+            .with_shading(gloss(0.05, 25.0)),
+        ),
+        door: b.material(Material::matte(
+            [0.45, 0.47, 0.42],
+            Texture::BoltedPanel {
+                pitch_m: 0.09,
+                bolt_radius_m: 0.006,
+            },
+            d.seed(),
+        )),
+        tray: b.material(Material::matte(
+            [0.5, 0.5, 0.48],
+            Texture::CableTray { slot_pitch_m: 0.05 },
+            d.seed(),
+        )),
+        dark: b.material(Material::matte(
+            [0.04, 0.04, 0.045],
+            Texture::Rubber { pitch_m: 0.01 },
+            d.seed(),
+        )),
+        hazard: b.material(
+            Material::matte(
+                [0.75, 0.55, 0.02],
+                Texture::Hazard { pitch_m: 0.12 },
+                d.seed(),
+            )
+            .with_accent([0.03, 0.03, 0.03]),
+        ),
+        rusty: b.material(Material::matte(
+            [0.35, 0.33, 0.3],
+            Texture::Painted {
+                grime: 0.1,
+                rust: 0.9,
+            },
+            d.seed(),
+        )),
+    }
+}
+
+/// Axis-aligned box from centre and half sizes.
+fn abox(c: [f64; 3], h: [f64; 3]) -> Shape {
+    Shape::Box {
+        center: Point3::new(c[0], c[1], c[2]),
+        rotation: Matrix3::identity(),
+        half_extents_m: Vector3::new(h[0], h[1], h[2]),
+    }
+}
+
+/// Box along the segment `p0 -> p1` with cross-section half sizes `(hy, hz)` about the
+/// frame `(dir, e_y, e_z)` with `e_y` perpendicular to `dir` and closest to `side`.
+fn member_box(
+    p0: Point3<f64>,
+    p1: Point3<f64>,
+    side: Vector3<f64>,
+    hy: f64,
+    hz: f64,
+    offset: [f64; 2],
+) -> Option<Shape> {
+    let d = p1 - p0;
+    let len = d.norm();
+    if len < 1e-6 {
+        return None;
+    }
+    let ex = d / len;
+    let mut ey = side - ex * side.dot(&ex);
+    if ey.norm() < 1e-6 {
+        ey = perpendicular(&ex);
+    }
+    let ey = ey.normalize();
+    let ez = ex.cross(&ey);
+    let center = p0 + d * 0.5 + ey * offset[0] + ez * offset[1];
+    Some(Shape::Box {
+        center,
+        rotation: Matrix3::from_columns(&[ex, ey, ez]),
+        half_extents_m: Vector3::new(len / 2.0, hy, hz),
+    })
+}
+
+/// An L-angle steel member from `p0` to `p1` with flange width `w`, thickness 6 mm, flanges
+/// opening towards `side` and `side x dir`.
+fn angle(
+    b: &mut SceneBuilder,
+    mat: MaterialId,
+    p0: Point3<f64>,
+    p1: Point3<f64>,
+    side: Vector3<f64>,
+    w: f64,
+) {
+    let t = 0.006;
+    if let Some(s) = member_box(p0, p1, side, w / 2.0, t / 2.0, [-w / 2.0, 0.0]) {
+        b.add(s, mat);
+    }
+    if let Some(s) = member_box(p0, p1, side, t / 2.0, w / 2.0, [0.0, -w / 2.0]) {
+        b.add(s, mat);
+    }
+}
+
+/// Square lattice column of half width `a` centred at `c`, from the foundation to `height`.
+fn lattice_column(
+    b: &mut SceneBuilder,
+    steel: MaterialId,
+    concrete: MaterialId,
+    c: [f64; 2],
+    a: f64,
+    height: f64,
+) {
+    b.add(abox([c[0], c[1], 0.1], [a + 0.35, a + 0.35, 0.2]), concrete);
+    let z0 = 0.3;
+    let corners = [(-a, -a), (a, -a), (a, a), (-a, a)];
+    for &(dx, dy) in &corners {
+        let p0 = Point3::new(c[0] + dx, c[1] + dy, z0);
+        let p1 = Point3::new(c[0] + dx, c[1] + dy, height);
+        angle(b, steel, p0, p1, Vector3::new(-dx.signum(), 0.0, 0.0), 0.09);
+    }
+    let panels = ((height - z0) / (2.0 * a * 1.25)).round().max(1.0) as usize;
+    let dz = (height - z0) / panels as f64;
+    for i in 0..=panels {
+        let z = z0 + dz * i as f64;
+        for f in 0..4 {
+            let (ax, ay) = corners[f];
+            let (bx, by) = corners[(f + 1) % 4];
+            let pa = Point3::new(c[0] + ax * 0.97, c[1] + ay * 0.97, z);
+            let pb = Point3::new(c[0] + bx * 0.97, c[1] + by * 0.97, z);
+            if i % 2 == 0 || i == panels {
+                angle(b, steel, pa, pb, Vector3::z(), 0.05);
+            }
+            if i < panels {
+                let z1 = z + dz;
+                let (q0, q1) = if (i + f) % 2 == 0 {
+                    (pa, Point3::new(pb.x, pb.y, z1))
+                } else {
+                    (pb, Point3::new(pa.x, pa.y, z1))
+                };
+                angle(
+                    b,
+                    steel,
+                    q0,
+                    q1,
+                    Vector3::new(c[0] - 0.5 * (pa.x + pb.x), c[1] - 0.5 * (pa.y + pb.y), 0.0),
+                    0.045,
+                );
+            }
+        }
+    }
+}
+
+/// Lattice beam along y from `y0` to `y1` at x = `x`, bottom at `z0`, half width `a`.
+fn lattice_beam(
+    b: &mut SceneBuilder,
+    steel: MaterialId,
+    x: f64,
+    y0: f64,
+    y1: f64,
+    z0: f64,
+    a: f64,
+) {
+    let chords = [(-a, 0.0), (a, 0.0), (a, 2.0 * a), (-a, 2.0 * a)];
+    for &(dx, dz) in &chords {
+        angle(
+            b,
+            steel,
+            Point3::new(x + dx, y0, z0 + dz),
+            Point3::new(x + dx, y1, z0 + dz),
+            Vector3::new(-dx.signum(), 0.0, 0.0),
+            0.08,
+        );
+    }
+    let panels = ((y1 - y0) / (2.0 * a * 1.2)).round().max(1.0) as usize;
+    let dy = (y1 - y0) / panels as f64;
+    for i in 0..=panels {
+        let y = y0 + dy * i as f64;
+        for f in 0..4 {
+            let (ax, az) = chords[f];
+            let (bx, bz) = chords[(f + 1) % 4];
+            let pa = Point3::new(x + ax * 0.97, y, z0 + a + (az - a) * 0.97);
+            let pb = Point3::new(x + bx * 0.97, y, z0 + a + (bz - a) * 0.97);
+            if i % 2 == 0 {
+                angle(b, steel, pa, pb, Vector3::y(), 0.045);
+            }
+            if i < panels {
+                let (q0, q1) = if (i + f) % 2 == 0 {
+                    (pa, Point3::new(pb.x, y + dy, pb.z))
+                } else {
+                    (pb, Point3::new(pa.x, y + dy, pa.z))
+                };
+                let inward =
+                    Vector3::new(x - 0.5 * (pa.x + pb.x), 0.0, z0 + a - 0.5 * (pa.z + pb.z));
+                angle(b, steel, q0, q1, inward, 0.04);
+            }
+        }
+    }
+}
+
+/// Tension insulator string from `top` (beam) to `end` (conductor attachment): core rod,
+/// disc sheds with caps at 146 mm pitch, yoke plates at both ends.
+fn insulator_string(
+    b: &mut SceneBuilder,
+    disc: MaterialId,
+    cap: MaterialId,
+    top: Point3<f64>,
+    end: Point3<f64>,
+) {
+    let d = end - top;
+    let len = d.norm();
+    let axis = d / len;
+    b.add(
+        Shape::Cylinder {
+            base: top,
+            axis,
+            length_m: len,
+            radius_m: 0.018,
+        },
+        cap,
+    );
+    let pitch = 0.146;
+    let n = ((len - 0.5) / pitch).floor().max(1.0) as usize;
+    let s0 = 0.5 * (len - (n - 1) as f64 * pitch);
+    for i in 0..n {
+        let c = top + axis * (s0 + pitch * i as f64);
+        b.add(
+            Shape::Cylinder {
+                base: c - axis * 0.008,
+                axis,
+                length_m: 0.016,
+                radius_m: 0.127,
+            },
+            disc,
+        );
+        b.add(
+            Shape::Cylinder {
+                base: c - axis * 0.05,
+                axis,
+                length_m: 0.045,
+                radius_m: 0.042,
+            },
+            cap,
+        );
+    }
+    let side = perpendicular(&axis);
+    for (p, s) in [(top, 0.12), (end, -0.12)] {
+        if let Some(shape) = member_box(
+            p + axis * s,
+            p + axis * (s * 0.2),
+            side,
+            0.15,
+            0.012,
+            [0.0, 0.0],
+        ) {
+            b.add(shape, cap);
+        }
+    }
+}
+
+/// Disconnect switch: two galvanised pedestals with post insulators and a blade between.
+fn disconnect_switch(b: &mut SceneBuilder, m: &Mats, disc: MaterialId, x: f64, y: f64) {
+    let h_ped = 2.4;
+    let h_post = 1.3;
+    for dx in [0.0, 1.5] {
+        let base = Point3::new(x + dx, y, 0.0);
+        b.add(abox([base.x, base.y, 0.1], [0.4, 0.4, 0.2]), m.concrete);
+        b.add(
+            Shape::Cylinder {
+                base: Point3::new(base.x, base.y, 0.3),
+                axis: Vector3::z(),
+                length_m: h_ped - 0.3,
+                radius_m: 0.11,
+            },
+            m.pedestal,
+        );
+        b.add(
+            abox([base.x, base.y, h_ped + 0.01], [0.2, 0.2, 0.012]),
+            m.pedestal,
+        );
+        let z0 = h_ped + 0.02;
+        b.add(
+            Shape::Cylinder {
+                base: Point3::new(base.x, base.y, z0),
+                axis: Vector3::z(),
+                length_m: h_post,
+                radius_m: 0.055,
+            },
+            disc,
+        );
+        let sheds = (h_post / 0.075) as usize;
+        for i in 1..sheds {
+            let r = if i % 2 == 0 { 0.105 } else { 0.085 };
+            b.add(
+                Shape::Cylinder {
+                    base: Point3::new(base.x, base.y, z0 + 0.075 * i as f64),
+                    axis: Vector3::z(),
+                    length_m: 0.014,
+                    radius_m: r,
+                },
+                disc,
+            );
+        }
+        b.add(
+            abox([base.x, base.y, z0 + h_post + 0.05], [0.09, 0.09, 0.05]),
+            m.cap,
+        );
+    }
+    b.add(
+        abox(
+            [x + 0.75, y, h_ped + 0.02 + h_post + 0.12],
+            [0.85, 0.035, 0.02],
+        ),
+        m.cap,
+    );
+}
+
+/// Kiosk: painted box with label plates, louvres and a bolted door.
+fn kiosk(b: &mut SceneBuilder, m: &Mats, at: Point3<f64>, d: &mut Dice) {
+    let (hx, hy, hz) = (1.6, 1.0, 1.25);
+    b.add(
+        abox([at.x, at.y, 0.1], [hx + 0.2, hy + 0.2, 0.1]),
+        m.concrete,
+    );
+    b.add(abox([at.x, at.y, 0.2 + hz], [hx, hy, hz]), m.kiosk);
+    b.add(
+        abox(
+            [at.x, at.y, 0.2 + 2.0 * hz + 0.04],
+            [hx + 0.08, hy + 0.08, 0.04],
+        ),
+        m.kiosk,
+    );
+    let yf = at.y - hy - 0.003;
+    b.add(abox([at.x - 0.6, yf, 1.2], [0.45, 0.004, 0.95]), m.door);
+    b.add(
+        abox([at.x + 0.6, yf, 1.9], [0.3, 0.004, 0.15]),
+        m.label_white,
+    );
+    b.add(abox([at.x + 0.6, yf, 0.6], [0.5, 0.004, 0.3]), m.louvres);
+    b.add(
+        abox(
+            [at.x + 0.6 + d.range(-0.2, 0.2), yf, 1.45],
+            [0.18, 0.004, 0.12],
+        ),
+        m.label_yellow,
+    );
+}
+
+/// Small marshalling box on two legs.
+fn marshalling_box(b: &mut SceneBuilder, m: &Mats, mat: MaterialId, at: Point3<f64>, size: f64) {
+    let h = size;
+    for dx in [-0.6 * h, 0.6 * h] {
+        b.add(
+            abox([at.x + dx, at.y, 0.45], [0.03, 0.03, 0.45]),
+            m.pedestal,
+        );
+    }
+    b.add(
+        abox([at.x, at.y, 0.9 + h * 0.6], [h, h * 0.4, h * 0.6]),
+        mat,
+    );
+    b.add(
+        abox(
+            [at.x, at.y - h * 0.4 - 0.003, 0.9 + h * 0.9],
+            [h * 0.5, 0.004, h * 0.15],
+        ),
+        m.label_white,
+    );
+}
+
+/// The calibration cabinet cluster with its front face at `x = x_front` facing -x, centred
+/// on `y`. Returns the face centre and normal.
+fn calibration_cabinet(
+    b: &mut SceneBuilder,
+    m: &Mats,
+    x_front: f64,
+    y: f64,
+    d: &mut Dice,
+) -> (Point3<f64>, Vector3<f64>) {
+    let (hx, hy, hz) = (0.3, 0.7, 0.95);
+    let cx = x_front + hx;
+    b.add(abox([cx, y, 0.08], [hx + 0.1, hy + 0.1, 0.08]), m.concrete);
+    b.add(abox([cx, y, 0.16 + hz], [hx, hy, hz]), m.cabinet);
+    b.add(
+        abox(
+            [cx, y, 0.16 + 2.0 * hz + 0.03],
+            [hx + 0.05, hy + 0.05, 0.03],
+        ),
+        m.cabinet,
+    );
+    // Two doors with a gap, bolted.
+    let xf = x_front - 0.004;
+    for s in [-1.0, 1.0] {
+        b.add(abox([xf, y + s * 0.35, 1.1], [0.004, 0.34, 0.8]), m.door);
+        // Door handle.
+        b.add(
+            abox([xf - 0.02, y + s * 0.05, 1.15], [0.012, 0.012, 0.09]),
+            m.dark,
+        );
+    }
+    // Labels (positions jittered by the seed), vents, hazard strip.
+    let xl = xf - 0.006;
+    b.add(
+        abox(
+            [xl, y - 0.35 + d.range(-0.05, 0.05), 1.55],
+            [0.002, 0.14, 0.09],
+        ),
+        m.label_white,
+    );
+    b.add(
+        abox(
+            [xl, y + 0.35 + d.range(-0.05, 0.05), 1.5],
+            [0.002, 0.1, 0.08],
+        ),
+        m.label_yellow,
+    );
+    b.add(
+        abox([xl, y - 0.3, 1.25], [0.002, 0.12, 0.05]),
+        m.label_white,
+    );
+    b.add(abox([xl, y + 0.3, 0.55], [0.002, 0.22, 0.12]), m.louvres);
+    b.add(abox([xl, y - 0.3, 0.55], [0.002, 0.22, 0.12]), m.louvres);
+    b.add(abox([xf, y, 0.25], [0.006, hy, 0.05]), m.hazard);
+    // Side junction box (rusty, bolted) and a cable tray along the side wall towards -y.
+    b.add(abox([cx, y - hy - 0.12, 1.2], [0.2, 0.12, 0.25]), m.rusty);
+    b.add(
+        abox([cx - 0.2 - 0.004, y - hy - 0.12, 1.2], [0.004, 0.11, 0.23]),
+        m.bolted,
+    );
+    let tray_z = 1.75;
+    let y0 = y - hy - 0.3;
+    let y1 = y - hy - 2.2;
+    b.add(
+        abox(
+            [x_front + 0.05, 0.5 * (y0 + y1), tray_z],
+            [0.15, 0.5 * (y0 - y1), 0.003],
+        ),
+        m.tray,
+    );
+    for s in [-1.0, 1.0] {
+        b.add(
+            abox(
+                [x_front + 0.05 + s * 0.15, 0.5 * (y0 + y1), tray_z + 0.04],
+                [0.003, 0.5 * (y0 - y1), 0.04],
+            ),
+            m.tray,
+        );
+    }
+    for yy in [y0 - 0.1, y1 + 0.1] {
+        b.add(
+            abox(
+                [x_front + 0.05, yy, tray_z / 2.0],
+                [0.03, 0.03, tray_z / 2.0],
+            ),
+            m.hazard,
+        );
+    }
+    // A bolted panel on a post in front of the tray end (more near-range texture).
+    let rot = Rotation3::from_axis_angle(&Vector3::z_axis(), 0.4).into_inner();
+    b.add(
+        Shape::Box {
+            center: Point3::new(x_front - 0.1, y - hy - 1.3, 1.15),
+            rotation: rot,
+            half_extents_m: Vector3::new(0.01, 0.3, 0.25),
+        },
+        m.bolted,
+    );
+    b.add(
+        abox([x_front - 0.1, y - hy - 1.3, 0.45], [0.03, 0.03, 0.45]),
+        m.pedestal,
+    );
+    (Point3::new(xf, y, 1.1), -Vector3::x())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Ray;
+
+    #[test]
+    fn same_seed_same_scene_and_conductor_is_where_the_catenary_says() -> Result<(), SubstationError>
+    {
+        let (s1, l1) = SubstationBuilder::new(7).build()?;
+        let (s2, _) = SubstationBuilder::new(7).build()?;
+        assert_eq!(s1.static_primitive_count(), s2.static_primitive_count());
+        assert_eq!(s1.materials(), s2.materials());
+        let cat = l1.target_conductor().ok_or(SubstationError::Parameter {
+            name: "phase",
+            value: 1.0,
+            min: 0.0,
+            max: 0.0,
+        })?;
+        // Shoot down onto the middle of the target wire from 0.5 m above.
+        let mid = cat.point_at(cat.span_m() * 0.37);
+        let ray = Ray::new(mid + Vector3::new(0.0, 0.0, 0.5), -Vector3::z());
+        let hit = s1
+            .intersect(&ray, 0.0, 10.0)
+            .ok_or(SubstationError::Parameter {
+                name: "hit",
+                value: 0.0,
+                min: 0.0,
+                max: 0.0,
+            })?;
+        let expect = 0.5 - CONDUCTOR_DIAMETER_M / 2.0;
+        assert!((hit.t_m - expect).abs() < 3e-4, "{} vs {expect}", hit.t_m);
+        Ok(())
+    }
+}

@@ -1,0 +1,497 @@
+//! Materials and seeded procedural textures.
+//!
+//! A texture maps surface coordinates `uv` (metres, see
+//! [`LocalSurface`](super::primitives::LocalSurface)) to a linear RGB albedo. Every texture is
+//! a pure function of `(uv, face, material seed)`, built from hashed value noise, fbm and
+//! cellular noise ([`super::noise`]).
+//!
+//! Antialiasing: each call receives the pixel footprint `w` (metres on the surface). Features
+//! of wavelength below `2 w` fade to their mean colour ([`band_weight`]) and hard edges are
+//! ramps of width `w` ([`aa_step`]), so a single sample per pixel does not alias (the
+//! renderer supersamples geometric edges separately).
+//!
+//! Corner content at the wrist working distance (0.3-0.6 m, one pixel ~ 0.17-0.34 mm with
+//! fx = 1745 px): gravel stones (5-25 mm), bolt heads, text-like glyph blocks (2-4 mm),
+//! rust-stain outlines and galvanising spangle give ORB corners; louvres, cable-tray slots,
+//! conductor strands and insulator discs are the repetitive cases; `Uniform` and lightly
+//! weathered paint are (nearly) textureless.
+
+use super::noise::{aa_step, band_weight, cellular2, fbm2, hash_u32, hash2, unit_f32, value2};
+
+/// Shading class of a material.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shading {
+    /// Lambertian.
+    Matte,
+    /// Lambertian plus a Blinn-Phong highlight (paint, glaze).
+    Glossy {
+        /// Specular reflectance (0..1).
+        specular: f32,
+        /// Blinn-Phong exponent.
+        exponent: f32,
+    },
+    /// Metallic: Blinn-Phong highlight tinted by the albedo; the depth camera loses the
+    /// pattern near the mirror direction.
+    Metal {
+        /// Specular reflectance (0..1).
+        specular: f32,
+        /// Blinn-Phong exponent.
+        exponent: f32,
+    },
+}
+
+/// Procedural texture kinds with their size parameters (metres).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Texture {
+    /// Exactly constant albedo (the textureless case; also used for SNR tests).
+    Uniform,
+    /// Painted steel: faint low-frequency grime, optional rust stains (`rust` 0..1).
+    Painted {
+        /// Grime contrast (0..0.2 typical).
+        grime: f32,
+        /// Rust coverage (0 = none, 1 = heavy).
+        rust: f32,
+    },
+    /// Hot-dip galvanised steel: spangle grains and mottling.
+    Galvanized,
+    /// Gravel: cellular stones of the given size with dark gaps.
+    Gravel {
+        /// Typical stone diameter (m).
+        stone_m: f32,
+    },
+    /// Concrete: fbm, pores and formwork seams.
+    Concrete,
+    /// Bolted panels: seams, bolt rows along the panel borders, rust streaks.
+    BoltedPanel {
+        /// Bolt spacing (m).
+        pitch_m: f32,
+        /// Bolt head radius (m).
+        bolt_radius_m: f32,
+    },
+    /// Rows of text-like glyphs (accent colour) on a plate (base colour).
+    Label {
+        /// Glyph height (m).
+        glyph_m: f32,
+    },
+    /// Ventilation louvres (repetitive horizontal slats).
+    Louvres {
+        /// Slat pitch (m).
+        pitch_m: f32,
+    },
+    /// Perforated cable tray (repetitive slots) on galvanised steel.
+    CableTray {
+        /// Slot pitch (m).
+        slot_pitch_m: f32,
+    },
+    /// Glazed porcelain.
+    Porcelain,
+    /// Helically stranded conductor.
+    Strands {
+        /// Strand width (m).
+        pitch_m: f32,
+    },
+    /// Diagonal hazard stripes (base / accent).
+    Hazard {
+        /// Stripe period (m).
+        pitch_m: f32,
+    },
+    /// Knurled rubber grip.
+    Rubber {
+        /// Knurl period (m).
+        pitch_m: f32,
+    },
+}
+
+/// A surface material.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Material {
+    /// Main linear albedo (0..1 per channel).
+    pub base_rgb: [f32; 3],
+    /// Secondary colour used by patterned textures (text, stripes, stones).
+    pub accent_rgb: [f32; 3],
+    /// Texture.
+    pub texture: Texture,
+    /// Shading class.
+    pub shading: Shading,
+    /// Texture seed.
+    pub seed: u32,
+}
+
+/// Returned for an out-of-range material id (never produced by a validated scene).
+pub static FALLBACK_MATERIAL: Material = Material {
+    base_rgb: [0.5, 0.0, 0.5],
+    accent_rgb: [0.5, 0.0, 0.5],
+    texture: Texture::Uniform,
+    shading: Shading::Matte,
+    seed: 0,
+};
+
+impl Material {
+    /// Matte material with a texture.
+    #[must_use]
+    pub const fn matte(base_rgb: [f32; 3], texture: Texture, seed: u32) -> Self {
+        Self {
+            base_rgb,
+            accent_rgb: base_rgb,
+            texture,
+            shading: Shading::Matte,
+            seed,
+        }
+    }
+
+    /// Sets the accent colour.
+    #[must_use]
+    pub const fn with_accent(mut self, accent_rgb: [f32; 3]) -> Self {
+        self.accent_rgb = accent_rgb;
+        self
+    }
+
+    /// Sets the shading class.
+    #[must_use]
+    pub const fn with_shading(mut self, shading: Shading) -> Self {
+        self.shading = shading;
+        self
+    }
+
+    /// Linear albedo at surface coordinates `uv_m` of face `face`, pixel footprint
+    /// `footprint_m` (metres on the surface).
+    #[must_use]
+    pub fn albedo(&self, uv_m: [f64; 2], face: u8, footprint_m: f32) -> [f32; 3] {
+        // Keep f32 precision: textures repeat every 4096 m, far beyond the scene.
+        let u = (uv_m[0].rem_euclid(4096.0)) as f32;
+        let v = (uv_m[1].rem_euclid(4096.0)) as f32;
+        let fp = footprint_m.max(1e-5);
+        let seed = hash_u32(self.seed ^ (u32::from(face) << 24));
+        let b = self.base_rgb;
+        let a = self.accent_rgb;
+        match self.texture {
+            Texture::Uniform => b,
+            Texture::Painted { grime, rust } => painted(b, u, v, fp, seed, grime, rust),
+            Texture::Galvanized => {
+                let w = band_weight(0.008, fp);
+                let c = cellular2(u / 0.008, v / 0.008, seed);
+                let grain = 0.88
+                    + 0.24 * unit_f32(c.id) * w
+                    + 0.1 * aa_step(0.06, c.f2 - c.f1, fp / 0.008) * w;
+                let mottle = 1.0 + 0.35 * fbm2(u, v, 0.25, 3, fp, seed ^ 0x55);
+                scale(b, grain * mottle)
+            }
+            Texture::Gravel { stone_m } => gravel(b, a, u, v, fp, seed, stone_m),
+            Texture::Concrete => {
+                let tone = 1.0 + 0.45 * fbm2(u, v, 0.35, 5, fp, seed);
+                let c = cellular2(u / 0.004, v / 0.004, seed ^ 0x77);
+                let pore =
+                    1.0 - 0.5 * (1.0 - aa_step(0.18, c.f1, fp / 0.004)) * band_weight(0.004, fp);
+                let seam_d = ((u / 1.2).fract() - 0.5).abs() * 1.2;
+                let seam = 1.0 - 0.4 * (1.0 - aa_step(0.002, 0.6 - seam_d, fp));
+                scale(b, tone * pore * seam)
+            }
+            Texture::BoltedPanel {
+                pitch_m,
+                bolt_radius_m,
+            } => bolted(b, u, v, fp, seed, pitch_m, bolt_radius_m),
+            Texture::Label { glyph_m } => label(b, a, u, v, fp, seed, glyph_m),
+            Texture::Louvres { pitch_m } => {
+                let f = (v / pitch_m).rem_euclid(1.0);
+                let w = band_weight(pitch_m, fp);
+                let slat = 0.7 + 0.45 * f / 0.75;
+                let gap = aa_step(0.75, f, fp / pitch_m);
+                let detail = slat * (1.0 - gap) + 0.12 * gap;
+                let mean = 0.72;
+                let g = 1.0 + 0.15 * fbm2(u, v, 0.3, 3, fp, seed);
+                scale(b, (w * detail + (1.0 - w) * mean) * g)
+            }
+            Texture::CableTray { slot_pitch_m } => {
+                let p = slot_pitch_m;
+                let fu = (u / p).rem_euclid(1.0);
+                let fv = (v / (0.5 * p)).rem_euclid(1.0);
+                // Rounded slot: |x| < 0.3, |y| < 0.2 in cell units.
+                let dx = ((fu - 0.5).abs() - 0.3).max(0.0);
+                let dy = ((fv - 0.5).abs() - 0.15).max(0.0);
+                let d_m = ((dx * dx + dy * dy).sqrt() - 0.06) * p * 0.5;
+                let hole = 1.0 - aa_step(0.0, d_m, fp);
+                let w = band_weight(0.5 * p, fp);
+                let m = 1.0 + 0.25 * fbm2(u, v, 0.2, 3, fp, seed);
+                let c = scale(b, m);
+                mix(c, scale(c, 0.08), hole * w + 0.15 * (1.0 - w))
+            }
+            Texture::Porcelain => {
+                let g = 1.0 + 0.12 * fbm2(u, v, 0.05, 4, fp, seed);
+                let dirt = 1.0 - 0.25 * (fbm2(u, v, 0.3, 3, fp, seed ^ 9) + 0.5).clamp(0.0, 1.0);
+                scale(b, g * dirt)
+            }
+            Texture::Strands { pitch_m } => {
+                let (s, c) = 0.26_f32.sin_cos();
+                let f = ((u * c + v * s) / pitch_m).rem_euclid(1.0);
+                let w = band_weight(pitch_m, fp);
+                let round = 0.55 + 0.5 * (std::f32::consts::PI * f).sin();
+                let strand = w * round + (1.0 - w) * 0.87;
+                let grime = 1.0 + 0.5 * fbm2(u * 0.3, v, 0.15, 5, fp, seed);
+                scale(b, strand * grime)
+            }
+            Texture::Hazard { pitch_m } => {
+                let f = ((u + v) / pitch_m).rem_euclid(1.0);
+                let t = aa_step(0.5, f, fp / pitch_m) * (1.0 - aa_step(0.98, f, fp / pitch_m));
+                let w = band_weight(pitch_m, fp);
+                let wear = 1.0 + 0.3 * fbm2(u, v, 0.05, 4, fp, seed);
+                scale(mix(b, a, w * t + (1.0 - w) * 0.5), wear)
+            }
+            Texture::Rubber { pitch_m } => {
+                let fa = ((u + v) / pitch_m).rem_euclid(1.0);
+                let fb = ((u - v) / pitch_m).rem_euclid(1.0);
+                let d = fa.min(1.0 - fa).min(fb).min(1.0 - fb) * pitch_m;
+                let w = band_weight(pitch_m, fp);
+                let groove =
+                    1.0 - 0.55 * (1.0 - aa_step(0.12 * pitch_m, d, fp)) * w - 0.1 * (1.0 - w);
+                scale(b, groove)
+            }
+        }
+    }
+}
+
+#[inline]
+fn scale(c: [f32; 3], k: f32) -> [f32; 3] {
+    [
+        (c[0] * k).clamp(0.0, 1.0),
+        (c[1] * k).clamp(0.0, 1.0),
+        (c[2] * k).clamp(0.0, 1.0),
+    ]
+}
+
+#[inline]
+fn mix(a: [f32; 3], b: [f32; 3], t: f32) -> [f32; 3] {
+    [
+        a[0] + (b[0] - a[0]) * t,
+        a[1] + (b[1] - a[1]) * t,
+        a[2] + (b[2] - a[2]) * t,
+    ]
+}
+
+const RUST_RGB: [f32; 3] = [0.23, 0.09, 0.035];
+
+fn painted(b: [f32; 3], u: f32, v: f32, fp: f32, seed: u32, grime: f32, rust: f32) -> [f32; 3] {
+    let g = 1.0 + 2.0 * grime * fbm2(u, v, 0.5, 3, fp, seed);
+    let mut c = scale(b, g);
+    if rust > 0.0 {
+        // Stains stretched vertically (run-off), threshold on fbm; dark rims give corners.
+        let s = fbm2(u * 1.6, v * 0.6, 0.06, 5, fp, seed ^ 0xabc) + 0.5;
+        let th = 0.5 + 0.3 * (1.0 - rust);
+        let inside = aa_step(th, s, 0.02 + fp * 3.0);
+        let rim = (1.0 - ((s - th).abs() / 0.015)).clamp(0.0, 1.0) * band_weight(0.004, fp);
+        let fine = 0.75 + 0.5 * value2(u / 0.003, v / 0.003, seed) * band_weight(0.003, fp);
+        c = mix(c, scale(RUST_RGB, fine), inside);
+        c = scale(c, 1.0 - 0.45 * rim);
+        c = mix(c, scale(RUST_RGB, 0.7), chips(u, v, fp, seed ^ 0x77, rust));
+    }
+    c
+}
+
+/// Coverage (0..1) of paint chips: 2-6 mm cellular flakes clustered where a low-frequency
+/// mask is high, `amount` in 0..1 scaling their density (corner-rich detail at the wrist
+/// working distance).
+fn chips(u: f32, v: f32, fp: f32, seed: u32, amount: f32) -> f32 {
+    let cell = 0.005;
+    let w = band_weight(cell, fp);
+    if w <= 0.0 || amount <= 0.0 {
+        return 0.0;
+    }
+    let mask = ((fbm2(u, v, 0.12, 2, fp, seed) + 0.5 - 0.5) * 5.0).clamp(0.0, 1.0) * amount;
+    if mask <= 0.0 {
+        return 0.0;
+    }
+    let c = cellular2(u / cell, v / cell, seed ^ 0x1234);
+    if unit_f32(c.id) > mask {
+        return 0.0;
+    }
+    // Irregular outline: the cell distance perturbed by fine value noise.
+    let radius = 0.2 + 0.3 * unit_f32(hash_u32(c.id));
+    let wobble =
+        0.5 * (value2(u / 0.0012, v / 0.0012, seed ^ 0x9999) - 0.5) * band_weight(0.0012, fp);
+    w * 0.85 * (1.0 - aa_step(radius, c.f1 + wobble, fp / cell))
+}
+
+fn gravel(b: [f32; 3], a: [f32; 3], u: f32, v: f32, fp: f32, seed: u32, stone_m: f32) -> [f32; 3] {
+    let w = band_weight(stone_m, fp);
+    let mean = scale(mix(b, a, 0.5), 0.85);
+    if w <= 0.0 {
+        let t = 1.0 + 0.3 * fbm2(u, v, 1.5, 3, fp, seed);
+        return scale(mean, t);
+    }
+    let c = cellular2(u / stone_m, v / stone_m, seed);
+    let h = c.id;
+    let tone = 0.6 + 0.8 * unit_f32(hash_u32(h));
+    let stone = scale(mix(b, a, unit_f32(h)), tone);
+    let gap = 1.0 - aa_step(0.1, c.f2 - c.f1, fp / stone_m);
+    let speck = 1.0 + 0.4 * fbm2(u, v, stone_m * 0.3, 3, fp, seed ^ 3);
+    let detail = scale(mix(stone, scale(stone, 0.25), gap), speck);
+    let large = 1.0 + 0.25 * fbm2(u, v, 1.5, 3, fp, seed ^ 5);
+    scale(mix(mean, detail, w), large)
+}
+
+fn bolted(b: [f32; 3], u: f32, v: f32, fp: f32, seed: u32, pitch: f32, r: f32) -> [f32; 3] {
+    let wp = pitch * 5.0;
+    let hp = pitch * 4.0;
+    let (pi, pj) = ((u / wp).floor() as i32, (v / hp).floor() as i32);
+    let (pu, pv) = (u - pi as f32 * wp, v - pj as f32 * hp);
+    let margin = 0.5 * pitch;
+    // Panel tone, seams.
+    let tone = 0.85 + 0.3 * unit_f32(hash2(pi, pj, seed));
+    let seam_d = pu.min(wp - pu).min(pv).min(hp - pv);
+    let seam = 0.25 + 0.75 * aa_step(0.0015, seam_d, fp);
+    // Nearest bolt on the border rows/columns.
+    let snap = |x: f32, len: f32| {
+        (margin + ((x - margin) / pitch).round() * pitch).clamp(margin, len - margin)
+    };
+    let row_v = if pv < hp * 0.5 { margin } else { hp - margin };
+    let col_u = if pu < wp * 0.5 { margin } else { wp - margin };
+    let c1 = (snap(pu, wp), row_v);
+    let c2 = (col_u, snap(pv, hp));
+    let d1 = ((pu - c1.0) * (pu - c1.0) + (pv - c1.1) * (pv - c1.1)).sqrt();
+    let d2 = ((pu - c2.0) * (pu - c2.0) + (pv - c2.1) * (pv - c2.1)).sqrt();
+    let (bc, d) = if d1 < d2 { (c1, d1) } else { (c2, d2) };
+    let (du, dv) = (pu - bc.0, pv - bc.1);
+    let mut k = tone
+        * seam
+        * (1.0
+            + 0.12 * fbm2(u, v, 0.3, 3, fp, seed ^ 1)
+            + 0.16 * fbm2(u, v, 0.012, 2, fp, seed ^ 2));
+    let wb = band_weight(2.0 * r, fp);
+    // Rust streaks run down (-v) from the top-row bolts and from the side-column bolts above
+    // the point; each bolt bleeds with its own strength.
+    let streak = |du: f32, dv: f32, id: i32| {
+        if dv >= 0.0 || du.abs() > 4.0 * r || dv < -60.0 * r {
+            return 0.0;
+        }
+        let strength = unit_f32(hash2(id, pi.wrapping_mul(131) ^ pj, seed ^ 0x5151));
+        strength
+            * (-(du.abs() / (0.6 * r))).exp()
+            * (dv / (14.0 * r)).exp()
+            * (0.6 + 0.8 * value2(u / 0.004, v / 0.02, seed))
+    };
+    let top_u = snap(pu, wp);
+    let above = (margin + ((pv - margin) / pitch).ceil() * pitch).min(hp - margin);
+    let s1 = streak(pu - top_u, pv - (hp - margin), (top_u / pitch) as i32);
+    let s2 = streak(
+        pu - col_u,
+        pv - above,
+        1000 + (above / pitch) as i32 + (col_u / pitch) as i32 * 7,
+    );
+    let chip = chips(u, v, fp, seed ^ 0x3c3c, 0.5);
+    let mut c = mix(
+        scale(b, k),
+        RUST_RGB,
+        (0.7 * s1.max(s2)).clamp(0.0, 1.0) * wb,
+    );
+    c = mix(c, [0.07, 0.07, 0.065], chip);
+    if d < 1.4 * r {
+        // Washer ring, then a domed head lit from the upper left.
+        let head = 1.0 - aa_step(r * 0.75, d, fp);
+        let washer = 1.0 - aa_step(r, d, fp);
+        let lit = 1.0 + 0.8 * ((-du + dv) / (r * 1.414)).clamp(-1.0, 1.0);
+        let rim = 1.0 - 0.6 * (1.0 - aa_step(0.0, (d - r * 0.78).abs() - r * 0.05, fp));
+        k = 1.0 + (washer * 0.9 - washer) + head * (lit - 1.0) * 0.8;
+        let bolt = scale(scale(b, k * rim), 1.0);
+        c = mix(c, bolt, washer * wb);
+    }
+    c
+}
+
+fn label(b: [f32; 3], a: [f32; 3], u: f32, v: f32, fp: f32, seed: u32, glyph: f32) -> [f32; 3] {
+    let row_h = glyph * 1.6;
+    let cell_w = glyph * 0.75;
+    let row = (v / row_h).floor() as i32;
+    let col = (u / cell_w).floor() as i32;
+    let (fu, fv) = (u / cell_w - col as f32, v / row_h - row as f32);
+    let rh = hash2(row, 0x51, seed);
+    // Line length in glyphs, some rows blank, words separated by spaces.
+    let len = (12 + rh % 40) as i32;
+    let blank_row = rh.is_multiple_of(5);
+    let gh = hash2(col, row, seed ^ 0xfeed);
+    let space = gh.is_multiple_of(6);
+    let w = band_weight(glyph * 0.2, fp);
+    let base_tone = 1.0 + 0.08 * fbm2(u, v, 0.1, 3, fp, seed);
+    let plate = scale(b, base_tone);
+    if blank_row || space || col < 1 || col > len {
+        return plate;
+    }
+    // Glyph area within the cell: x in [0.1, 0.85], y in [0.2, 0.9] of the row.
+    let gx = (fu - 0.1) / 0.75;
+    let gy = (fv - 0.2) / 0.7;
+    if !(0.0..1.0).contains(&gx) || !(0.0..1.0).contains(&gy) {
+        return mix(plate, a, 0.0);
+    }
+    let (bi, bj) = ((gx * 3.0) as i32, (gy * 5.0) as i32);
+    let bits = gh >> 3;
+    let on = |i: i32, j: i32| {
+        (0..3).contains(&i) && (0..5).contains(&j) && (bits >> (i + 3 * j)) & 1 == 1
+    };
+    if !on(bi, bj) {
+        return mix(plate, a, 0.3 * (1.0 - w));
+    }
+    let (bx, by) = (gx * 3.0 - bi as f32, gy * 5.0 - bj as f32);
+    let (bw, bh) = (0.75 * cell_w / 3.0, 0.7 * row_h / 5.0);
+    let mut d = f32::MAX;
+    if !on(bi - 1, bj) {
+        d = d.min(bx * bw);
+    }
+    if !on(bi + 1, bj) {
+        d = d.min((1.0 - bx) * bw);
+    }
+    if !on(bi, bj - 1) {
+        d = d.min(by * bh);
+    }
+    if !on(bi, bj + 1) {
+        d = d.min((1.0 - by) * bh);
+    }
+    let ink = aa_step(0.0, d, fp);
+    mix(plate, a, w * ink + 0.3 * (1.0 - w))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn textures_are_deterministic_and_in_range() {
+        let kinds = [
+            Texture::Uniform,
+            Texture::Painted {
+                grime: 0.1,
+                rust: 0.8,
+            },
+            Texture::Galvanized,
+            Texture::Gravel { stone_m: 0.02 },
+            Texture::Concrete,
+            Texture::BoltedPanel {
+                pitch_m: 0.08,
+                bolt_radius_m: 0.008,
+            },
+            Texture::Label { glyph_m: 0.012 },
+            Texture::Louvres { pitch_m: 0.02 },
+            Texture::CableTray { slot_pitch_m: 0.05 },
+            Texture::Porcelain,
+            Texture::Strands { pitch_m: 0.004 },
+            Texture::Hazard { pitch_m: 0.1 },
+            Texture::Rubber { pitch_m: 0.004 },
+        ];
+        for (k, t) in kinds.iter().enumerate() {
+            let m = Material::matte([0.5, 0.4, 0.3], *t, k as u32).with_accent([0.05, 0.05, 0.05]);
+            let first = m.albedo([0.0, 0.0], 1, 0.0003);
+            let mut spread = 0.0_f32;
+            for i in 0..2000 {
+                let uv = [i as f64 * 0.00123, (i * 7 % 113) as f64 * 0.0017];
+                let c = m.albedo(uv, 1, 0.0003);
+                assert_eq!(c, m.albedo(uv, 1, 0.0003));
+                for (x, f) in c.iter().zip(first) {
+                    assert!((0.0..=1.0).contains(x), "{t:?} {x}");
+                    spread = spread.max((x - f).abs());
+                }
+            }
+            if *t == Texture::Uniform {
+                assert!(spread < 1e-6);
+            } else {
+                assert!(spread > 0.02, "{t:?} has no contrast");
+            }
+        }
+    }
+}
