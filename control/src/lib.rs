@@ -1,1 +1,5 @@
 //! Task logic over the message stream: script stage, trajectories, planners, perception, hang/remove task machines, safety gates.
+
+pub mod motion;
+pub mod perception;
+

@@ -1,0 +1,268 @@
+//! Collision checks: the arm (and the rod it holds) as capsules against the platform (boxes)
+//! and the rod and wire (capsules), with a clearance margin.
+//!
+//! # Shapes and distances
+//! A capsule is a segment `[a, b]` swept by a sphere of radius `r`; a cylinder (wire, rod) is
+//! checked as its enclosing capsule (conservative by at most `r` at the ends). Capsule-capsule
+//! clearance = segment-segment distance - `r1 - r2` (closest points of two segments, Ericson,
+//! *Real-Time Collision Detection*, 2005, s5.1.9). Capsule-box clearance = segment-box distance
+//! `- r`: in the box frame the point-to-box distance `‖max(|x| - h, 0)‖` is convex along
+//! the segment, so its minimum is found by golden-section search (60 iterations, 1e-12 of
+//! the segment), exact up to that tolerance.
+//!
+//! # The arm
+//! Link capsules join consecutive DH frame origins of [`robot::RobotModel::arm_base_from_links`]
+//! (each AUBO row has either `d` or `a` non-zero, so each segment runs along the real link),
+//! with radii [`ARM_LINK_RADII_M`]; the tool capsule runs from tool0 along its z axis
+//! (the clamp and the held rod). The base link (arm base to shoulder) sits on the lift and is
+//! not checked against the platform it is bolted to; no self-collision check (the AUBO's
+//! joint limits and the planned poses keep the links apart; a later addition).
+
+use super::MotionError;
+use nalgebra::{Isometry3, Point3, Vector3};
+use robot::RobotModel;
+
+/// Radii of the arm's link capsules (m): shoulder column, upper arm, forearm, wrist 1,
+/// wrist 2, wrist 3 (from the AUBO i10's published outline, rounded up).
+pub const ARM_LINK_RADII_M: [f64; 6] = [0.08, 0.075, 0.065, 0.055, 0.055, 0.05];
+/// Names of the checked bodies, in capsule order.
+pub const ARM_LINK_NAMES: [&str; 7] = [
+    "arm_shoulder_link",
+    "arm_upperarm_link",
+    "arm_forearm_link",
+    "arm_wrist1_link",
+    "arm_wrist2_link",
+    "arm_wrist3_link",
+    "tool",
+];
+
+/// A capsule: segment `a-b` swept by a sphere of radius `radius_m`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Capsule {
+    /// One end of the core segment.
+    pub a: Point3<f64>,
+    /// The other end.
+    pub b: Point3<f64>,
+    /// Radius (m).
+    pub radius_m: f64,
+}
+
+/// An oriented box.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OrientedBox {
+    /// `frame_from_box` (centred).
+    pub frame_from_box: Isometry3<f64>,
+    /// Half extents (m).
+    pub half_extents_m: Vector3<f64>,
+}
+
+/// Closest points `(s, t)` of segments `p1 + s (q1 - p1)` and `p2 + t (q2 - p2)`, both in
+/// `[0, 1]`, and their distance (Ericson s5.1.9).
+#[must_use]
+pub fn segment_segment(
+    p1: &Point3<f64>,
+    q1: &Point3<f64>,
+    p2: &Point3<f64>,
+    q2: &Point3<f64>,
+) -> (f64, f64, f64) {
+    let (d1, d2, r) = (q1 - p1, q2 - p2, p1 - p2);
+    let (a, e, f) = (d1.norm_squared(), d2.norm_squared(), d2.dot(&r));
+    let eps = 1e-18;
+    let (s, t) = if a <= eps && e <= eps {
+        (0.0, 0.0)
+    } else if a <= eps {
+        (0.0, (f / e).clamp(0.0, 1.0))
+    } else {
+        let c = d1.dot(&r);
+        if e <= eps {
+            ((-c / a).clamp(0.0, 1.0), 0.0)
+        } else {
+            let b = d1.dot(&d2);
+            let denom = a * e - b * b;
+            let mut s = if denom > eps {
+                ((b * f - c * e) / denom).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let mut t = (b * s + f) / e;
+            if t < 0.0 {
+                t = 0.0;
+                s = (-c / a).clamp(0.0, 1.0);
+            } else if t > 1.0 {
+                t = 1.0;
+                s = ((b - c) / a).clamp(0.0, 1.0);
+            }
+            (s, t)
+        }
+    };
+    let distance = ((p1 + d1 * s) - (p2 + d2 * t)).norm();
+    (s, t, distance)
+}
+
+/// Clearance between two capsules (negative = overlap).
+#[must_use]
+pub fn capsule_capsule(c1: &Capsule, c2: &Capsule) -> f64 {
+    segment_segment(&c1.a, &c1.b, &c2.a, &c2.b).2 - c1.radius_m - c2.radius_m
+}
+
+/// Distance from a point to a box (0 inside).
+#[must_use]
+pub fn point_box_distance(p: &Point3<f64>, b: &OrientedBox) -> f64 {
+    let local = b.frame_from_box.inverse_transform_point(p);
+    let outside = local.coords.abs() - b.half_extents_m;
+    outside.map(|x| x.max(0.0)).norm()
+}
+
+/// Clearance between a capsule and a box (golden-section search, module docs).
+#[must_use]
+pub fn capsule_box(c: &Capsule, b: &OrientedBox) -> f64 {
+    let f = |s: f64| point_box_distance(&(c.a + (c.b - c.a) * s), b);
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut lo, mut hi) = (0.0f64, 1.0f64);
+    let (mut x1, mut x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
+    let (mut f1, mut f2) = (f(x1), f(x2));
+    for _ in 0..60 {
+        if f1 <= f2 {
+            hi = x2;
+            x2 = x1;
+            f2 = f1;
+            x1 = hi - g * (hi - lo);
+            f1 = f(x1);
+        } else {
+            lo = x1;
+            x1 = x2;
+            f1 = f2;
+            x2 = lo + g * (hi - lo);
+            f2 = f(x2);
+        }
+    }
+    f(0.0).min(f(1.0)).min(f1).min(f2) - c.radius_m
+}
+
+/// Obstacles in `base_link`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct CollisionWorld {
+    /// Named boxes (platform, lift column, rack).
+    pub boxes: Vec<(String, OrientedBox)>,
+    /// Named capsules (wire span, a rod on the rack or on the wire).
+    pub capsules: Vec<(String, Capsule)>,
+}
+
+/// The arm's capsule model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ArmCollisionModel {
+    /// The robot.
+    pub model: RobotModel,
+    /// Link radii (m).
+    pub link_radii_m: [f64; 6],
+    /// Tool capsule: length along tool0's z (m) and radius (m). Default 0.25 m, 0.05 m
+    /// (clamp body).
+    pub tool_length_m: f64,
+    /// Tool capsule radius (m).
+    pub tool_radius_m: f64,
+    /// Required clearance (m). Default 0.02.
+    pub margin_m: f64,
+}
+
+impl ArmCollisionModel {
+    /// The nominal robot with the default radii.
+    #[must_use]
+    pub fn nominal() -> Self {
+        Self {
+            model: RobotModel::nominal(),
+            link_radii_m: ARM_LINK_RADII_M,
+            tool_length_m: 0.25,
+            tool_radius_m: 0.05,
+            margin_m: 0.02,
+        }
+    }
+
+    /// The capsules of [`ARM_LINK_NAMES`] in `base_link` at `(lift_m, q)`.
+    #[must_use]
+    pub fn capsules(&self, lift_m: f64, q_rad: &[f64; 6]) -> [Capsule; 7] {
+        let base_from_arm = self.model.base_from_arm_base(lift_m);
+        let frames = self.model.dh.dh_frames(q_rad);
+        let origin = |k: usize| base_from_arm * Point3::from(frames[k].translation.vector);
+        let mut out = [Capsule {
+            a: Point3::origin(),
+            b: Point3::origin(),
+            radius_m: 0.0,
+        }; 7];
+        for (k, slot) in out.iter_mut().take(6).enumerate() {
+            *slot = Capsule {
+                a: origin(k),
+                b: origin(k + 1),
+                radius_m: self.link_radii_m[k],
+            };
+        }
+        let base_from_tool0 = base_from_arm * frames[6];
+        out[6] = Capsule {
+            a: base_from_tool0 * Point3::origin(),
+            b: base_from_tool0 * Point3::new(0.0, 0.0, self.tool_length_m),
+            radius_m: self.tool_radius_m,
+        };
+        out
+    }
+
+    /// Smallest clearance of the configuration and where it is, `(clearance, link, obstacle)`.
+    #[must_use]
+    pub fn clearance(
+        &self,
+        world: &CollisionWorld,
+        lift_m: f64,
+        q_rad: &[f64; 6],
+    ) -> (f64, &'static str, String) {
+        let capsules = self.capsules(lift_m, q_rad);
+        let mut best = (f64::INFINITY, "", String::new());
+        for (k, capsule) in capsules.iter().enumerate() {
+            let name = ARM_LINK_NAMES[k];
+            for (obstacle, b) in &world.boxes {
+                if k == 0 {
+                    continue; // the shoulder column is bolted to the platform
+                }
+                let c = capsule_box(capsule, b);
+                if c < best.0 {
+                    best = (c, name, obstacle.clone());
+                }
+            }
+            for (obstacle, other) in &world.capsules {
+                let c = capsule_capsule(capsule, other);
+                if c < best.0 {
+                    best = (c, name, obstacle.clone());
+                }
+            }
+        }
+        best
+    }
+
+    /// Checks every `stride`-th sample (and the last) of a joint trajectory at a fixed lift.
+    ///
+    /// # Errors
+    /// [`MotionError::Collision`] for the first sample closer than the margin.
+    pub fn check_samples(
+        &self,
+        world: &CollisionWorld,
+        lift_m: f64,
+        samples: &[[f64; 6]],
+        stride: usize,
+    ) -> Result<f64, MotionError> {
+        let mut min_clearance = f64::INFINITY;
+        let n = samples.len();
+        for (k, q) in samples.iter().enumerate() {
+            if k % stride.max(1) != 0 && k + 1 != n {
+                continue;
+            }
+            let (clearance, link, obstacle) = self.clearance(world, lift_m, q);
+            if clearance < self.margin_m {
+                return Err(MotionError::Collision {
+                    sample: k,
+                    link,
+                    obstacle,
+                    clearance_m: clearance,
+                });
+            }
+            min_clearance = min_clearance.min(clearance);
+        }
+        Ok(min_clearance)
+    }
+}

@@ -1,0 +1,119 @@
+//! Perception: wrist depth capture -> point cloud -> ROI -> wire axis (RANSAC cylinder of
+//! known radius, refined) -> hanging point and approach normal; the rod's handle likewise;
+//! a confidence score from measured fit quality (never from the illuminance reading).
+//!
+//! | module | holds |
+//! |---|---|
+//! | [`point_cloud`] | pinhole + plumb_bob camera, per-pixel ray table, depth image -> points, normals, `PointCloud2` |
+//! | [`roi`] | pixel ROI from a prior, ROI extraction, the wrist camera's look pose |
+//! | [`cylinder`] | RANSAC cylinder of known radius (2 points + normals) and LM refinement |
+//! | [`wire`] | hanging point on the axis, approach normal, capture fusion, `PoseStamped` |
+//! | [`handle`] | the rod handle (a bar of known radius and length): pose |
+//! | [`confidence`] | quality metrics -> score in [0, 1], refusal threshold |
+//! | [`synthetic`] | seeded synthetic depth captures (cylinder, plane, boxes, noise, holes) for tests and benches |
+//! | [`rng`] | splitmix64, the only random source |
+//!
+//! Geometric ROI fitting replaces the paper's LA-Net segmentation (DESIGN.md s6): the wire is
+//! whatever a cylinder of the conductor's known radius explains best inside the ROI.
+//!
+//! # Conventions
+//! Points are `nalgebra::Point3<f64>` in metres; the camera frame is
+//! `camera_color_optical_frame` (OpenCV axes: x right, y down, z forward); transforms are
+//! `a_from_b` (`base_from_camera * p_in_camera = p_in_base`). Depth images hold the z
+//! coordinate (not the range) of each pixel, 0 or NaN for holes.
+
+pub mod confidence;
+pub mod cylinder;
+pub mod handle;
+pub mod point_cloud;
+pub mod rng;
+pub mod roi;
+pub mod synthetic;
+pub mod wire;
+
+/// Conductor radius of the wire (m): 26.8 mm diameter (DESIGN.md s6).
+pub const WIRE_RADIUS_M: f64 = 0.0134;
+
+/// Why perception produced no estimate (it refuses rather than guesses).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PerceptionError {
+    /// The camera model is unusable.
+    #[error("camera model: {reason} (width {width}, height {height}, fx {fx}, fy {fy})")]
+    BadCamera {
+        /// What is wrong.
+        reason: &'static str,
+        /// Image width (px).
+        width: u32,
+        /// Image height (px).
+        height: u32,
+        /// Focal length x (px).
+        fx: f64,
+        /// Focal length y (px).
+        fy: f64,
+    },
+    /// The depth image does not match the camera or has an unsupported layout.
+    #[error(
+        "depth image: {reason} (encoding {encoding}, {width}x{height}, step {step}, {bytes} bytes)"
+    )]
+    BadDepthImage {
+        /// What is wrong.
+        reason: &'static str,
+        /// Its encoding.
+        encoding: String,
+        /// Width (px).
+        width: u32,
+        /// Height (px).
+        height: u32,
+        /// Row stride (bytes).
+        step: u32,
+        /// Data length (bytes).
+        bytes: usize,
+    },
+    /// Too few valid points to fit.
+    #[error("too few points: {got} valid, need at least {needed}")]
+    TooFewPoints {
+        /// Valid points available.
+        got: usize,
+        /// Minimum required.
+        needed: usize,
+    },
+    /// RANSAC found no hypothesis with enough inliers.
+    #[error("no cylinder: best hypothesis has {inliers} inliers of {points}, need {needed}")]
+    NoCylinder {
+        /// Inliers of the best hypothesis.
+        inliers: usize,
+        /// Points tried.
+        points: usize,
+        /// Minimum inliers required.
+        needed: usize,
+    },
+    /// The fitted handle's visible length disagrees with the model.
+    #[error("handle length {measured_m:.4} m, model {model_m:.4} m (tolerance {tolerance_m:.4} m)")]
+    HandleLength {
+        /// Measured inlier extent along the axis.
+        measured_m: f64,
+        /// Model length.
+        model_m: f64,
+        /// Allowed difference.
+        tolerance_m: f64,
+    },
+    /// The estimate's confidence is below the acceptance threshold.
+    #[error("refused: confidence {score:.3} < {threshold:.3} (limited by {limiting})")]
+    LowConfidence {
+        /// Score in [0, 1].
+        score: f64,
+        /// Acceptance threshold.
+        threshold: f64,
+        /// The factor that limited the score.
+        limiting: &'static str,
+    },
+    /// No capture was given.
+    #[error("no captures given")]
+    NoCaptures,
+    /// A geometric input is degenerate (non-finite or zero-length).
+    #[error("degenerate input: {what}")]
+    Degenerate {
+        /// Which input.
+        what: &'static str,
+    },
+}
