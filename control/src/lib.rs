@@ -2,4 +2,4 @@
 
 pub mod motion;
 pub mod perception;
-
+pub mod script;

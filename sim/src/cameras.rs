@@ -1,0 +1,344 @@
+//! The wrist RGB-D camera ([`CameraDriver`], producer `camera_driver`) and the panoramic
+//! camera (producer `panoramic_driver`), rendered by [`crate::render`].
+//!
+//! # Wrist camera (Mech-Eye NANO class, DESIGN.md s6)
+//! * A request (`/camera/trigger`) at `t` exposes at `t + exposure_delay_s` (default 10 ms:
+//!   trigger latency) and the images become available at `t + capture_s` (default 1 s:
+//!   structured-light pattern sequence plus processing). A request while a capture is in
+//!   progress is refused with [`DriverError::Busy`].
+//! * Outputs at the ready time (log_time = publish_time = ready): `/camera/color/image_raw`
+//!   (`rgb8`), `/camera/depth/image_raw` (registered to colour, `32FC1` metres with NaN holes,
+//!   or `16UC1` millimetres with 0 holes: scenario `camera.depth_encoding`) and
+//!   `/camera/color/camera_info` (plumb_bob), all with `header.stamp` = exposure time and
+//!   frame `camera_color_optical_frame`.
+//! * Size 1280x1024 times `camera.scale` (0.25 -> 320x256 for tests), intrinsics
+//!   [`CameraIntrinsics::wrist`] scaled.
+//! * The image is rendered from the **true** pose at the exposure instant: true base pose,
+//!   lift with its wind tilt, true (perturbed) arm, true (possibly bumped) mount, the wire's
+//!   sway and the rod where it is. Motion during the ~1 s pattern sequence is not modelled
+//!   (no motion artefacts): commanders must hold the arm still until the images arrive, as
+//!   with the real camera.
+//!
+//! # Panoramic camera
+//! Every `panoramic.period_s` (default 1 s; <= 1 Hz) a colour image of
+//! [`CameraIntrinsics::panoramic`] times `panoramic.scale` (default 0.5 -> 320x180) from the
+//! robot crate's nominal `base_from_panoramic_optical`, published 50 ms after exposure
+//! ([`PANORAMIC_LATENCY`]) on `/panoramic/image_raw` and `/panoramic/camera_info`.
+//!
+//! Render seeds: `rng::key(seed, stream, capture index)`: the noise differs per capture and
+//! is identical for any thread count.
+
+use msgs::drivers::{CameraCapture, CameraDriver, DriverError};
+use msgs::sensor_msgs::image_encodings::{RGB8, TYPE_16UC1, TYPE_32FC1};
+use msgs::sensor_msgs::{CameraInfo, Image, RegionOfInterest};
+use msgs::std_msgs::Header;
+use msgs::{RobotDuration, RobotTime};
+use nalgebra::Isometry3;
+
+use crate::SimError;
+use crate::render::{
+    CameraIntrinsics, LightConditions, RayTable, RgbdFrame, SensorParams, render_rgbd_with_rays,
+};
+use crate::rng::{self, streams};
+use crate::scenario::{CameraConfig, DepthEncoding, PanoramicConfig};
+use crate::scene::Scene;
+
+/// Producer of the wrist camera topics.
+pub const CAMERA_DRIVER: &str = "camera_driver";
+/// Producer of the panoramic camera topics.
+pub const PANORAMIC_DRIVER: &str = "panoramic_driver";
+/// Exposure -> publication delay of the panoramic camera.
+pub const PANORAMIC_LATENCY: RobotDuration = RobotDuration::from_millis(50);
+
+/// `sensor_msgs/CameraInfo` of `k` (plumb_bob `[k1, k2, p1, p2, k3]`, `R = I`, `P = [K | 0]`).
+#[must_use]
+pub fn camera_info(k: &CameraIntrinsics, header: Header) -> CameraInfo {
+    CameraInfo {
+        header,
+        height: k.height,
+        width: k.width,
+        distortion_model: "plumb_bob".to_owned(),
+        d: vec![k.k1, k.k2, k.p1, k.p2, k.k3],
+        k: [k.fx, 0.0, k.cx, 0.0, k.fy, k.cy, 0.0, 0.0, 1.0],
+        r: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+        p: [
+            k.fx, 0.0, k.cx, 0.0, 0.0, k.fy, k.cy, 0.0, 0.0, 0.0, 1.0, 0.0,
+        ],
+        binning_x: 0,
+        binning_y: 0,
+        roi: RegionOfInterest::default(),
+    }
+}
+
+/// The colour image of a frame (`rgb8`).
+#[must_use]
+pub fn color_image(f: &RgbdFrame, header: Header) -> Image {
+    Image {
+        header,
+        height: f.height,
+        width: f.width,
+        encoding: RGB8.to_owned(),
+        is_bigendian: 0,
+        step: 3 * f.width,
+        data: f.rgb.clone(),
+    }
+}
+
+/// The depth image of a frame in `encoding` (little-endian).
+#[must_use]
+pub fn depth_image(f: &RgbdFrame, header: Header, encoding: DepthEncoding) -> Image {
+    let (enc, step, data) = match encoding {
+        DepthEncoding::Float32Metres => (
+            TYPE_32FC1,
+            4 * f.width,
+            f.depth_m.iter().flat_map(|z| z.to_le_bytes()).collect(),
+        ),
+        DepthEncoding::U16Millimetres => (
+            TYPE_16UC1,
+            2 * f.width,
+            f.depth_mm().iter().flat_map(|z| z.to_le_bytes()).collect(),
+        ),
+    };
+    Image {
+        header,
+        height: f.height,
+        width: f.width,
+        encoding: enc.to_owned(),
+        is_bigendian: 0,
+        step,
+        data,
+    }
+}
+
+fn header_at(device: &str, t: RobotTime, frame: &str) -> Result<Header, DriverError> {
+    let stamp = t.to_ros().map_err(|e| DriverError::Fault {
+        device: device.to_owned(),
+        now: t,
+        reason: e.to_string(),
+    })?;
+    Ok(Header {
+        stamp,
+        frame_id: frame.to_owned(),
+    })
+}
+
+#[derive(Debug, Clone)]
+struct Pending {
+    exposure: RobotTime,
+    ready: RobotTime,
+    result: Option<CameraCapture>,
+}
+
+/// The wrist RGB-D camera.
+#[derive(Debug, Clone)]
+pub struct WristCamera {
+    seed: u64,
+    intrinsics: CameraIntrinsics,
+    rays: RayTable,
+    sensor: SensorParams,
+    depth_encoding: DepthEncoding,
+    capture: RobotDuration,
+    exposure_delay: RobotDuration,
+    pending: Option<Pending>,
+    captures: u64,
+}
+
+impl WristCamera {
+    /// The camera of a scenario.
+    ///
+    /// # Errors
+    /// [`SimError::Render`] for an invalid scale; [`SimError::ScenarioField`] for durations.
+    pub fn new(config: &CameraConfig, seed: u64) -> Result<Self, SimError> {
+        let intrinsics = CameraIntrinsics::wrist()
+            .scaled(config.scale)
+            .map_err(crate::render::RenderError::from)?;
+        let rays = RayTable::new(&intrinsics)?;
+        let dur = |key: &str, s: f64| {
+            RobotDuration::from_secs_f64(s).map_err(|e| SimError::ScenarioField {
+                origin: "camera".to_owned(),
+                key: key.to_owned(),
+                reason: e.to_string(),
+            })
+        };
+        Ok(Self {
+            seed,
+            intrinsics,
+            rays,
+            sensor: SensorParams::wrist(),
+            depth_encoding: config.depth_encoding,
+            capture: dur("camera.capture_s", config.capture_s)?,
+            exposure_delay: dur("camera.exposure_delay_s", config.exposure_delay_s)?,
+            pending: None,
+            captures: 0,
+        })
+    }
+
+    /// The intrinsics at the output size.
+    #[must_use]
+    pub fn intrinsics(&self) -> &CameraIntrinsics {
+        &self.intrinsics
+    }
+
+    /// Exposure time of a requested capture that still has to be rendered.
+    #[must_use]
+    pub fn exposure_due(&self) -> Option<RobotTime> {
+        self.pending
+            .as_ref()
+            .filter(|p| p.result.is_none())
+            .map(|p| p.exposure)
+    }
+
+    /// Renders the pending capture from `world_from_camera` (the true pose at the exposure
+    /// time) under `light`.
+    ///
+    /// # Errors
+    /// [`DriverError::Fault`] if nothing is pending or a stamp does not fit.
+    pub fn expose(
+        &mut self,
+        scene: &Scene,
+        world_from_camera: &Isometry3<f64>,
+        light: &LightConditions,
+    ) -> Result<(), DriverError> {
+        let seed = rng::key(self.seed, streams::WRIST_CAMERA, self.captures);
+        let Some(p) = self.pending.as_mut() else {
+            return Err(DriverError::Fault {
+                device: CAMERA_DRIVER.to_owned(),
+                now: RobotTime::ZERO,
+                reason: "no capture pending".to_owned(),
+            });
+        };
+        let frame = render_rgbd_with_rays(
+            scene,
+            world_from_camera,
+            &self.rays,
+            light,
+            &self.sensor,
+            seed,
+        );
+        let header = header_at(
+            CAMERA_DRIVER,
+            p.exposure,
+            msgs::frames::CAMERA_COLOR_OPTICAL_FRAME,
+        )?;
+        p.result = Some(CameraCapture {
+            color: color_image(&frame, header.clone()),
+            depth: Some(depth_image(&frame, header.clone(), self.depth_encoding)),
+            camera_info: camera_info(&self.intrinsics, header),
+            ready_at: p.ready,
+        });
+        self.captures += 1;
+        Ok(())
+    }
+}
+
+impl CameraDriver for WristCamera {
+    fn request_capture(&mut self, now: RobotTime) -> Result<RobotTime, DriverError> {
+        if let Some(p) = &self.pending {
+            return Err(DriverError::Busy {
+                device: CAMERA_DRIVER.to_owned(),
+                now,
+                busy_until: p.ready,
+            });
+        }
+        let ready = now + self.capture;
+        self.pending = Some(Pending {
+            exposure: now + self.exposure_delay,
+            ready,
+            result: None,
+        });
+        Ok(ready)
+    }
+
+    fn poll_capture(&mut self, now: RobotTime) -> Result<Option<CameraCapture>, DriverError> {
+        match &self.pending {
+            Some(p) if p.ready <= now => {
+                let done = self.pending.take().and_then(|p| p.result);
+                done.map(Some).ok_or_else(|| DriverError::Fault {
+                    device: CAMERA_DRIVER.to_owned(),
+                    now,
+                    reason: "capture ready but never exposed".to_owned(),
+                })
+            }
+            _ => Ok(None),
+        }
+    }
+}
+
+/// The panoramic camera on the base.
+#[derive(Debug, Clone)]
+pub struct PanoramicCamera {
+    seed: u64,
+    intrinsics: CameraIntrinsics,
+    rays: RayTable,
+    sensor: SensorParams,
+    /// Capture period (`None` = off).
+    pub period: Option<RobotDuration>,
+    captures: u64,
+}
+
+impl PanoramicCamera {
+    /// The camera of a scenario.
+    ///
+    /// # Errors
+    /// [`SimError::Render`] for an invalid scale; [`SimError::ScenarioField`] for the period.
+    pub fn new(config: &PanoramicConfig, seed: u64) -> Result<Self, SimError> {
+        let intrinsics = CameraIntrinsics::panoramic()
+            .scaled(config.scale)
+            .map_err(crate::render::RenderError::from)?;
+        let rays = RayTable::new(&intrinsics)?;
+        let period = if config.period_s > 0.0 {
+            Some(RobotDuration::from_secs_f64(config.period_s).map_err(|e| {
+                SimError::ScenarioField {
+                    origin: "panoramic".to_owned(),
+                    key: "panoramic.period_s".to_owned(),
+                    reason: e.to_string(),
+                }
+            })?)
+        } else {
+            None
+        };
+        Ok(Self {
+            seed,
+            intrinsics,
+            rays,
+            sensor: SensorParams::panoramic(),
+            period,
+            captures: 0,
+        })
+    }
+
+    /// Whether `t` is a capture instant (multiples of the period).
+    #[must_use]
+    pub fn due(&self, t: RobotTime) -> bool {
+        self.period
+            .is_some_and(|p| p.as_nanos() > 0 && t.as_nanos().is_multiple_of(p.as_nanos()))
+    }
+
+    /// Renders one image exposed at `t` from `world_from_camera`: `(image, camera_info)`.
+    ///
+    /// # Errors
+    /// [`DriverError::Fault`] if the stamp does not fit.
+    pub fn capture(
+        &mut self,
+        scene: &Scene,
+        world_from_camera: &Isometry3<f64>,
+        light: &LightConditions,
+        t: RobotTime,
+    ) -> Result<(Image, CameraInfo), DriverError> {
+        let seed = rng::key(self.seed, streams::PANORAMIC_CAMERA, self.captures);
+        self.captures += 1;
+        let frame = render_rgbd_with_rays(
+            scene,
+            world_from_camera,
+            &self.rays,
+            light,
+            &self.sensor,
+            seed,
+        );
+        let header = header_at(PANORAMIC_DRIVER, t, msgs::frames::PANORAMIC_OPTICAL_FRAME)?;
+        Ok((
+            color_image(&frame, header.clone()),
+            camera_info(&self.intrinsics, header),
+        ))
+    }
+}

@@ -1,0 +1,74 @@
+//! Ground truth on `/sim/...` topics (producer `sim`): for scoring only, never an input to
+//! calibration, perception or control (DESIGN.md s2).
+//!
+//! | topic | type | rate | content |
+//! |---|---|---|---|
+//! | `/sim/camera_mount` | TransformStamped | 1 Hz and at the bump | true `tool0_from_camera` (`tool0` -> `camera_color_optical_frame`) |
+//! | `/sim/wire_pose` | PoseStamped (`map`) | 10 Hz | hanging point: the target conductor's axis at the robot's working spot (x = span position), `x` along the wire, `z` perpendicular and up; includes sway |
+//! | `/sim/handle_pose` | PoseStamped (`map`) | 10 Hz | rod handle: origin on the rod axis halfway up the handle, rod axes |
+//! | `/sim/wind` | Float64 | 1 Hz | true 3-s mean wind (m/s) |
+//! | `/sim/illuminance` | Illuminance | 1 Hz | true global horizontal illuminance (lx), variance 0 |
+//! | `/sim/rod_state` | String | 1 Hz and on change | `on_rack`, `in_gripper`, `hooked`, `clamped`, `dropped` |
+
+use msgs::builtin_interfaces::Time;
+use msgs::geometry_msgs::{Point, Pose, PoseStamped, Quaternion};
+use msgs::std_msgs::Header;
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+
+use crate::scene::Catenary;
+
+/// Producer of the truth topics.
+pub const SIM: &str = "sim";
+/// Position of the handle's reference point in the rod frame (m).
+pub const HANDLE_CENTER_IN_ROD_M: [f64; 3] = [0.0, 0.0, 0.125];
+
+/// A `PoseStamped` of `frame_from_body`.
+#[must_use]
+pub fn pose_stamped(frame: &str, stamp: Time, frame_from_body: &Isometry3<f64>) -> PoseStamped {
+    let t = frame_from_body.translation.vector;
+    let q = frame_from_body.rotation;
+    PoseStamped {
+        header: Header {
+            stamp,
+            frame_id: frame.to_owned(),
+        },
+        pose: Pose {
+            position: Point {
+                x: t.x,
+                y: t.y,
+                z: t.z,
+            },
+            orientation: Quaternion {
+                x: q.i,
+                y: q.j,
+                z: q.k,
+                w: q.w,
+            },
+        },
+    }
+}
+
+/// The hanging point at span position `u_m` of `wire` swayed by `world_from_wire` (the rigid
+/// sway pose): origin on the axis, `x` along the tangent, `z` perpendicular and upwards.
+#[must_use]
+pub fn hanging_point(
+    wire: &Catenary,
+    world_from_wire: &Isometry3<f64>,
+    u_m: f64,
+) -> Isometry3<f64> {
+    let u = u_m.clamp(0.0, wire.span_m());
+    let p = wire.point_at(u);
+    let x = wire
+        .tangent_at(u)
+        .try_normalize(1e-12)
+        .unwrap_or_else(Vector3::x);
+    let y = Vector3::z()
+        .cross(&x)
+        .try_normalize(1e-12)
+        .unwrap_or_else(Vector3::y);
+    let z = x.cross(&y);
+    let r = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(
+        Matrix3::from_columns(&[x, y, z]),
+    ));
+    world_from_wire * Isometry3::from_parts(Translation3::from(p.coords), r)
+}
