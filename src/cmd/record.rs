@@ -18,8 +18,11 @@ use recorder::{
 use replay::McapReader;
 use robot::{RobotModel, RobotStateConfig, RobotStateStage};
 
-/// Parameter choosing the world; only `test_world` exists until the simulator lands.
+/// Parameter choosing the world: `sim` (default, the simulator) or `test_world`.
 pub const WORLD_PARAM: &str = "world";
+
+/// The embedded default driver: the deterministic simulator (DESIGN.md section 1).
+pub const DEFAULT_WORLD: &str = "sim";
 
 /// Arguments of `rodlog record`.
 #[derive(Debug, clap::Args)]
@@ -60,12 +63,20 @@ pub fn scenario_dirs() -> Vec<PathBuf> {
     ]
 }
 
-/// The stages of the current pipeline, configured from `params`, in rank order:
-/// `robot_state` (robot crate), `arm_exerciser`, `joint_limit_monitor` (recorder crate).
+/// The stages of the current pipeline, configured from `params` and the scenario's
+/// `[[command]]` list, in rank order. The world (`world` parameter, default `sim`) decides
+/// which stages stand in front of it:
+/// - `sim`: `robot_state` (robot crate), `script` (control crate: plays the commands);
+/// - `test_world`: `robot_state`, `arm_exerciser`, `joint_limit_monitor` (recorder crate).
+///
+/// Replay builds the same list from the recording's metadata and attached scenario.
 ///
 /// # Errors
-/// A stage's configuration error.
-pub fn pipeline(params: &Params) -> anyhow::Result<Vec<Box<dyn Stage + Send>>> {
+/// A stage's configuration error, an unknown world, a malformed command.
+pub fn pipeline(
+    params: &Params,
+    commands: &[toml::Table],
+) -> anyhow::Result<Vec<Box<dyn Stage + Send>>> {
     let latency_ms = params.f64_or("robot_state.latency_ms", 1.0)?;
     let robot_state = RobotStateStage::new(
         RobotModel::nominal(),
@@ -76,11 +87,81 @@ pub fn pipeline(params: &Params) -> anyhow::Result<Vec<Box<dyn Stage + Send>>> {
                 .bool_or("robot_state.publish_robot_description", true)?,
         },
     );
-    Ok(vec![
-        Box::new(robot_state),
-        Box::new(ArmExerciser::from_params(params)?),
-        Box::new(JointLimitMonitor::from_params(params)?),
-    ])
+    let world = params.str_or(WORLD_PARAM, DEFAULT_WORLD)?;
+    match world.as_str() {
+        "sim" => Ok(vec![
+            Box::new(robot_state),
+            Box::new(script_stage(commands)?),
+        ]),
+        "test_world" => Ok(vec![
+            Box::new(robot_state),
+            Box::new(ArmExerciser::from_params(params)?),
+            Box::new(JointLimitMonitor::from_params(params)?),
+        ]),
+        other => bail!("unknown world {other:?}: use sim (the simulator) or test_world"),
+    }
+}
+
+/// The `script` stage from a scenario's `[[command]]` tables (`t_s`, `kind`, `values`,
+/// optional `duration_s`).
+///
+/// # Errors
+/// A command with a missing or mistyped field (naming its index), and the script stage's
+/// own validation errors.
+pub fn script_stage(commands: &[toml::Table]) -> anyhow::Result<control::script::ScriptStage> {
+    let mut parts: Vec<(f64, String, Vec<f64>, f64)> = Vec::with_capacity(commands.len());
+    for (i, c) in commands.iter().enumerate() {
+        let number = |v: &toml::Value| v.as_float().or_else(|| v.as_integer().map(|n| n as f64));
+        let t_s = c
+            .get("t_s")
+            .and_then(number)
+            .with_context(|| format!("[[command]] {i}: missing or non-numeric t_s"))?;
+        let kind = c
+            .get("kind")
+            .and_then(toml::Value::as_str)
+            .with_context(|| format!("[[command]] {i}: missing kind"))?;
+        let values = match c.get("values") {
+            None => Vec::new(),
+            Some(toml::Value::Array(a)) => a
+                .iter()
+                .map(|v| {
+                    number(v).with_context(|| format!("[[command]] {i}: values must be numbers"))
+                })
+                .collect::<anyhow::Result<Vec<f64>>>()?,
+            Some(_) => bail!("[[command]] {i}: values must be an array of numbers"),
+        };
+        let duration_s = c.get("duration_s").and_then(number).unwrap_or(0.0);
+        parts.push((t_s, kind.to_owned(), values, duration_s));
+    }
+    Ok(control::script::ScriptStage::from_parts(
+        parts
+            .iter()
+            .map(|(t, k, v, d)| (*t, k.as_str(), v.as_slice(), *d)),
+    )?)
+}
+
+/// The simulator for a scenario: its file text (the source or the recording's attached
+/// copy) with the seed and every parameter of the simulator's own sections applied (so
+/// `--set robot.perturbation=false` and a recording's stored overrides reach the world).
+///
+/// # Errors
+/// Invalid scenario text or values (the simulator's errors name the key).
+fn sim_world(scenario: &Scenario) -> anyhow::Result<sim::SimWorld> {
+    let origin = scenario
+        .source_path
+        .as_ref()
+        .map_or_else(|| scenario.name.clone(), |p| p.display().to_string());
+    let mut s = sim::Scenario::parse(&scenario.source_text, &origin)?;
+    s.seed = scenario.seed;
+    let overrides: Vec<(String, String)> = scenario
+        .params
+        .iter()
+        .filter(|(k, _)| *k != WORLD_PARAM)
+        .map(|(k, v)| (k.to_owned(), v.to_string()))
+        .collect();
+    // Keys that are not the simulator's are stage parameters: the pipeline reads them.
+    let _stage_keys = s.apply_overrides(&overrides)?;
+    Ok(sim::SimWorld::from_scenario(&s)?)
 }
 
 /// Parses `--compression`.
@@ -139,15 +220,8 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
     for s in &args.set {
         scenario.params.set_from_arg(s)?;
     }
-    let world_name = scenario.params.str_or(WORLD_PARAM, "test_world")?;
-    if world_name != "test_world" {
-        bail!("world {world_name:?} is not available (only test_world until the simulator lands)");
-    }
-    let world = TestWorld::new(TestWorldConfig::from_params(
-        scenario.seed,
-        &scenario.params,
-    )?);
-    let stages = pipeline(&scenario.params)?;
+    let world_name = scenario.params.str_or(WORLD_PARAM, DEFAULT_WORLD)?;
+    let stages = pipeline(&scenario.params, &scenario.commands)?;
     let robot_info = MetadataRecord::new("robot_info")
         .with("robot", "AUBO i10 arm + lift + mobile base")
         .with("model", "nominal DH (DESIGN.md section 6)")
@@ -172,8 +246,26 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
         realtime: args.realtime,
         threads: args.threads,
     };
-    let summary = recorder::record(world, stages, &header, scenario.duration, &options)
-        .with_context(|| format!("recording scenario {} to {}", scenario.name, out.display()))?;
+    let summary = match world_name.as_str() {
+        "sim" => recorder::record(
+            sim_world(&scenario)?,
+            stages,
+            &header,
+            scenario.duration,
+            &options,
+        ),
+        _ => recorder::record(
+            TestWorld::new(TestWorldConfig::from_params(
+                scenario.seed,
+                &scenario.params,
+            )?),
+            stages,
+            &header,
+            scenario.duration,
+            &options,
+        ),
+    }
+    .with_context(|| format!("recording scenario {} to {}", scenario.name, out.display()))?;
     println!(
         "recorded {} messages, {} of robot time, to {}{}",
         summary.messages,

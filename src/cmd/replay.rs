@@ -71,7 +71,11 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<()> {
             None => format!("{k} (removed)"),
         })
         .collect();
-    let stages = pipeline(&params)?;
+    // The scenario's command list (for the `script` stage) comes from the attached file.
+    let commands = super::record::scenario_of_recording(&args.rec)
+        .map(|s| s.commands)
+        .unwrap_or_default();
+    let stages = pipeline(&params, &commands)?;
     let options = ReplayOptions {
         start_s: args.start,
         end_s: args.end,
