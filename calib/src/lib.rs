@@ -1,4 +1,5 @@
 //! Hand-eye self-calibration: ORB features, matching, GMS, relative pose, AX=XB solvers, refinement.
 
+pub mod features;
 pub mod handeye;
 pub mod relpose;

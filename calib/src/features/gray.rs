@@ -1,0 +1,341 @@
+//! Gray image views, owned gray buffers, the image pyramid and the smoothing used by ORB.
+//!
+//! Images are 8-bit, row-major, with a row `stride >= width` (so sub-views and padded
+//! buffers need no copy). All loops run over whole rows (`chunks`/`zip`) so the compiler
+//! can vectorise them; nothing allocates per pixel.
+
+use super::FeatureError;
+
+/// A borrowed 8-bit gray image: `data[y * stride + x]` is the pixel in column `x`, row `y`.
+#[derive(Clone, Copy, Debug)]
+pub struct GrayView<'a> {
+    data: &'a [u8],
+    width: usize,
+    height: usize,
+    stride: usize,
+}
+
+impl<'a> GrayView<'a> {
+    /// A view of a tightly packed image (`stride == width`).
+    ///
+    /// # Errors
+    /// [`FeatureError::BufferTooShort`] when `data` holds fewer than `width * height` bytes.
+    pub fn new(data: &'a [u8], width: usize, height: usize) -> Result<Self, FeatureError> {
+        Self::with_stride(data, width, height, width)
+    }
+
+    /// A view with an explicit row stride (bytes from one row start to the next).
+    ///
+    /// # Errors
+    /// [`FeatureError::BadStride`] when `stride < width`, [`FeatureError::BufferTooShort`]
+    /// when `data` ends before the last pixel.
+    pub fn with_stride(
+        data: &'a [u8],
+        width: usize,
+        height: usize,
+        stride: usize,
+    ) -> Result<Self, FeatureError> {
+        if stride < width {
+            return Err(FeatureError::BadStride { width, stride });
+        }
+        let needed = if height == 0 {
+            0
+        } else {
+            (height - 1) * stride + width
+        };
+        if data.len() < needed {
+            return Err(FeatureError::BufferTooShort {
+                len: data.len(),
+                needed,
+            });
+        }
+        Ok(Self {
+            data,
+            width,
+            height,
+            stride,
+        })
+    }
+
+    /// A view of an `image` crate gray image.
+    pub fn from_image(img: &'a image::GrayImage) -> Self {
+        let (w, h) = img.dimensions();
+        Self {
+            data: img.as_raw(),
+            width: w as usize,
+            height: h as usize,
+            stride: w as usize,
+        }
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Bytes from one row start to the next.
+    pub fn stride(&self) -> usize {
+        self.stride
+    }
+
+    /// The underlying bytes (rows `stride` apart).
+    pub fn data(&self) -> &'a [u8] {
+        self.data
+    }
+
+    /// Row `y` (exactly `width` pixels), or `None` outside the image.
+    pub fn row(&self, y: usize) -> Option<&'a [u8]> {
+        if y >= self.height {
+            return None;
+        }
+        self.data.get(y * self.stride..y * self.stride + self.width)
+    }
+
+    /// Pixel `(x, y)`, or `None` outside the image.
+    pub fn get(&self, x: usize, y: usize) -> Option<u8> {
+        if x >= self.width || y >= self.height {
+            return None;
+        }
+        self.data.get(y * self.stride + x).copied()
+    }
+}
+
+/// An owned, tightly packed 8-bit gray image (reused between frames by [`Pyramid`]).
+#[derive(Clone, Debug, Default)]
+pub struct GrayBuf {
+    /// Pixels, row-major, `width * height` bytes.
+    pub data: Vec<u8>,
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+}
+
+impl GrayBuf {
+    /// Resizes the buffer (keeping its allocation when large enough); contents unspecified.
+    pub fn reshape(&mut self, width: usize, height: usize) {
+        self.width = width;
+        self.height = height;
+        self.data.resize(width * height, 0);
+    }
+
+    /// Copies a view into this buffer.
+    pub fn copy_from(&mut self, src: &GrayView<'_>) {
+        self.reshape(src.width, src.height);
+        for (y, dst) in self.data.chunks_exact_mut(src.width.max(1)).enumerate() {
+            if let Some(row) = src.row(y) {
+                dst.copy_from_slice(row);
+            }
+        }
+    }
+
+    /// A view of this buffer.
+    pub fn view(&self) -> GrayView<'_> {
+        GrayView {
+            data: &self.data,
+            width: self.width,
+            height: self.height,
+            stride: self.width,
+        }
+    }
+}
+
+/// Converts 8-bit RGB to gray with the ITU-R BT.601 weights OpenCV's `cvtColor` uses,
+/// `Y = (4899 R + 9617 G + 1868 B + 2^13) >> 14` (0.299, 0.587, 0.114 in 14-bit fixed point),
+/// so rodlog and the OpenCV reference see the same pixels.
+pub fn rgb_to_gray(rgb: &image::RgbImage) -> image::GrayImage {
+    let (w, h) = rgb.dimensions();
+    let data: Vec<u8> = rgb
+        .as_raw()
+        .chunks_exact(3)
+        .map(|p| {
+            let y = 4899 * u32::from(p[0]) + 9617 * u32::from(p[1]) + 1868 * u32::from(p[2]);
+            ((y + 8192) >> 14) as u8
+        })
+        .collect();
+    image::GrayImage::from_raw(w, h, data).unwrap_or_else(|| image::GrayImage::new(w, h))
+}
+
+/// Scratch buffers of [`resize_bilinear`] (kept between calls to avoid allocation).
+#[derive(Clone, Debug, Default)]
+pub struct ResizeScratch {
+    xtab: Vec<(u32, u16)>,
+    h0: Vec<u16>,
+    h1: Vec<u16>,
+}
+
+/// Fixed-point bilinear weights: 7 bits per axis (sum 128).
+const RESIZE_ONE: u32 = 128;
+
+/// Source index `i` (with `i + 1` valid) and weight of `i + 1` for destination index `x`,
+/// `u = (x + 0.5) s - 0.5` clamped to `[0, n - 1]`.
+fn resize_tab(x: usize, s: f64, n: usize) -> (u32, u16) {
+    let u = ((x as f64 + 0.5) * s - 0.5).clamp(0.0, (n - 1) as f64);
+    let i = (u.floor() as usize).min(n.saturating_sub(2));
+    let f = (u - i as f64).clamp(0.0, 1.0);
+    (i as u32, (f * f64::from(RESIZE_ONE)).round() as u16)
+}
+
+/// Bilinear resize of `src` into `dst` (`dst.width`, `dst.height` already set), with the
+/// pixel-centre convention of OpenCV's `INTER_LINEAR`: source coordinate
+/// `u = (x + 0.5) * sx - 0.5`, clamped to the image, `sx = src.width / dst.width`.
+/// Separable in 7-bit fixed point: each source row is interpolated horizontally once
+/// (`h = (128 - f) p_i + f p_{i+1}`, cached for the next output row), then rows are
+/// blended vertically, `out = ((128 - g) h_j + g h_{j+1} + 2^13) >> 14`.
+/// Sources narrower or shorter than 2 pixels are not resized (`dst` is left as is).
+pub fn resize_bilinear(src: &GrayView<'_>, dst: &mut GrayBuf, scratch: &mut ResizeScratch) {
+    let (sw, sh, dw, dh) = (src.width, src.height, dst.width, dst.height);
+    if sw < 2 || sh < 2 || dw == 0 || dh == 0 {
+        return;
+    }
+    let sx = sw as f64 / dw as f64;
+    let sy = sh as f64 / dh as f64;
+    scratch.xtab.clear();
+    scratch.xtab.extend((0..dw).map(|x| resize_tab(x, sx, sw)));
+    scratch.h0.resize(dw, 0);
+    scratch.h1.resize(dw, 0);
+    let hrow = |row: &[u8], xtab: &[(u32, u16)], out: &mut [u16]| {
+        for (o, &(i, f)) in out.iter_mut().zip(xtab.iter()) {
+            let i = i as usize;
+            let (a, b) = match row.get(i..i + 2) {
+                Some(p) => (u16::from(p[0]), u16::from(p[1])),
+                None => (0, 0),
+            };
+            *o = a * (RESIZE_ONE as u16 - f) + b * f;
+        }
+    };
+    // Source rows currently held in h0 / h1.
+    let mut held: (usize, usize) = (usize::MAX, usize::MAX);
+    for (y, out) in dst.data.chunks_exact_mut(dw).enumerate() {
+        let (iy, fy) = resize_tab(y, sy, sh);
+        let iy = iy as usize;
+        if held != (iy, iy + 1) {
+            if held.1 == iy {
+                std::mem::swap(&mut scratch.h0, &mut scratch.h1);
+            } else if let Some(r) = src.row(iy) {
+                hrow(r, &scratch.xtab, &mut scratch.h0);
+            }
+            if let Some(r) = src.row(iy + 1) {
+                hrow(r, &scratch.xtab, &mut scratch.h1);
+            }
+            held = (iy, iy + 1);
+        }
+        let (g1, g0) = (u32::from(fy), RESIZE_ONE - u32::from(fy));
+        for ((o, &a), &b) in out.iter_mut().zip(scratch.h0.iter()).zip(scratch.h1.iter()) {
+            *o = ((u32::from(a) * g0 + u32::from(b) * g1 + (1 << 13)) >> 14) as u8;
+        }
+    }
+}
+
+/// Integer 7-tap Gaussian (sigma = 2) weights, summing to 256: `round(256 g(k) / sum g)`,
+/// `g(k) = exp(-k^2 / 8)`, k = -3..3, adjusted so the sum is exactly 256. ORB's rBRIEF
+/// compares smoothed intensities (Rublee et al., ICCV 2011, section 4; OpenCV smooths with
+/// a 7x7, sigma 2 Gaussian); integer weights keep the result exact and fast. The exact
+/// weights are 17.96, 33.56, 48.82, 55.32; the centre is rounded down to make the sum 256.
+/// Its 7-pixel support approximates the 5x5 sub-window means of the ORB paper's tests.
+pub const GAUSS7: [u16; 7] = [18, 34, 49, 54, 49, 34, 18];
+
+/// Scratch rows of [`gaussian_blur7`].
+#[derive(Clone, Debug, Default)]
+pub struct BlurScratch {
+    mid: Vec<u16>,
+    acc: Vec<u16>,
+}
+
+/// Separable 7x7 Gaussian smoothing ([`GAUSS7`]) with replicated borders, `src` -> `dst`.
+/// Vertical pass `v = (sum_k w_k p_{y+k} + 128) >> 8`, then horizontal
+/// `out = (sum_k w_k v_{x+k} + 128) >> 8`; every intermediate fits in u16, and each pass
+/// runs over whole rows, so both vectorise (8 lanes per SSE register).
+pub fn gaussian_blur7(src: &GrayView<'_>, dst: &mut GrayBuf, scratch: &mut BlurScratch) {
+    let (w, h) = (src.width, src.height);
+    dst.reshape(w, h);
+    if w == 0 || h == 0 {
+        return;
+    }
+    let BlurScratch { mid, acc } = scratch;
+    mid.clear();
+    mid.resize(w + 6, 0);
+    acc.clear();
+    acc.resize(w, 0);
+    for (y, out) in dst.data.chunks_exact_mut(w).enumerate() {
+        let rows: [&[u8]; 7] = std::array::from_fn(|k| {
+            let yy = (y as isize + k as isize - 3).clamp(0, h as isize - 1) as usize;
+            src.row(yy).unwrap_or(&[])
+        });
+        // Vertical pass into acc, one whole row per tap.
+        for (a, &p) in acc.iter_mut().zip(rows[0].iter()) {
+            *a = GAUSS7[0] * u16::from(p);
+        }
+        for (k, row) in rows.iter().enumerate().skip(1) {
+            let wk = GAUSS7[k];
+            for (a, &p) in acc.iter_mut().zip(row.iter()) {
+                *a += wk * u16::from(p);
+            }
+        }
+        for (m, &a) in mid[3..w + 3].iter_mut().zip(acc.iter()) {
+            *m = (a + 128) >> 8;
+        }
+        let (first, last) = (mid[3], mid[w + 2]);
+        mid[..3].fill(first);
+        mid[w + 3..].fill(last);
+        // Horizontal pass: seven shifted whole-row multiply-adds.
+        for (a, &m) in acc.iter_mut().zip(mid[..w].iter()) {
+            *a = GAUSS7[0] * m;
+        }
+        for (k, &wk) in GAUSS7.iter().enumerate().skip(1) {
+            for (a, &m) in acc.iter_mut().zip(mid[k..k + w].iter()) {
+                *a += wk * m;
+            }
+        }
+        for (o, &a) in out.iter_mut().zip(acc.iter()) {
+            *o = ((a + 128) >> 8) as u8;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gauss_weights_sum_to_256() {
+        assert_eq!(GAUSS7.iter().map(|&w| u32::from(w)).sum::<u32>(), 256);
+    }
+
+    #[test]
+    fn blur_keeps_constant_image() {
+        let data = vec![77u8; 20 * 9];
+        let v = GrayView::new(&data, 20, 9).expect("view");
+        let mut out = GrayBuf::default();
+        gaussian_blur7(&v, &mut out, &mut BlurScratch::default());
+        assert!(out.data.iter().all(|&p| p == 77));
+    }
+
+    #[test]
+    fn resize_halves_a_ramp() {
+        let data: Vec<u8> = (0..16 * 4).map(|i| ((i % 16) * 10) as u8).collect();
+        let v = GrayView::new(&data, 16, 4).expect("view");
+        let mut out = GrayBuf::default();
+        out.reshape(8, 2);
+        resize_bilinear(&v, &mut out, &mut ResizeScratch::default());
+        // x_dst = 0 samples u = 0.5: mean of 0 and 10.
+        assert_eq!(out.data[0], 5);
+        assert_eq!(out.data[7], 145);
+    }
+
+    #[test]
+    fn view_rejects_short_buffer() {
+        assert!(matches!(
+            GrayView::new(&[0u8; 10], 4, 3),
+            Err(FeatureError::BufferTooShort {
+                len: 10,
+                needed: 12
+            })
+        ));
+    }
+}

@@ -1,0 +1,486 @@
+//! ORB: oriented FAST and rotated BRIEF (Rublee, Rabaud, Konolige & Bradski, "ORB: an
+//! efficient alternative to SIFT or SURF", ICCV 2011), with the keypoint distribution of
+//! ORB-SLAM (Mur-Artal et al., T-RO 2015/2017).
+//!
+//! Per pyramid level `l` (image scaled by `1 / s^l`, `s` = [`OrbParams::scale_factor`]):
+//! 1. FAST-9 ([`super::fast`]) at [`OrbParams::fast_threshold`] over the region at least
+//!    [`OrbParams::edge_threshold`] pixels from the border, with non-maximum suppression;
+//!    every `cell_size` cell (30 px) left empty is searched again at
+//!    [`OrbParams::min_fast_threshold`] (ORB-SLAM's 20 -> 7 fallback, for low-texture areas).
+//! 2. Ranking by the Harris measure `R = det(M) - k tr(M)^2` (k = 0.04) of the 7x7 Sobel
+//!    structure tensor `M` (Harris & Stephens 1988; ORB section 3.1), scaled as OpenCV does
+//!    by `(4 * 7 * 255)^-4`. As in OpenCV, FAST is first thinned by its own score to twice the
+//!    level's quota (here with the quadtree, so the thinning keeps the spread).
+//! 3. The quadtree ([`super::quadtree`]) keeps the level's quota, best Harris per node.
+//!    Quotas follow ORB-SLAM, `n_l = N (1 - 1/s) s^-l / (1 - s^-L)`, processed from the
+//!    coarsest level down; a level short of its quota passes the shortfall to the next finer.
+//! 4. Orientation by the intensity centroid (ORB eq. 1-3): `m_pq = sum x^p y^q I(x, y)`
+//!    over the disc of radius `patch_size / 2`, `theta = atan2(m01, m10)`.
+//! 5. Steered BRIEF: for each test `(p_i, q_i)` of [`super::brief_pattern::BRIEF_PATTERN`],
+//!    rotated by `theta`, bit `i = [I_s(R p_i) < I_s(R q_i)]` on the image smoothed by
+//!    [`super::gray::gaussian_blur7`], pixel positions rounded (ORB section 4). The 256
+//!    tests were learned as in ORB section 4.3 (greedy, mean near 0.5, low correlation) by
+//!    `calib/examples/learn_brief_pattern.rs` on seeded synthetic scenes; see
+//!    [`super::brief_pattern`].
+//!
+//! All per-image buffers (pyramid, smoothed level, FAST scores, quadtree nodes) live in
+//! [`OrbExtractor`] and are reused, so a warm extractor allocates only its output.
+//!
+//! Keypoints are reported in full-resolution pixels: `x = x_l * s^l`.
+
+use super::brief_pattern::BRIEF_PATTERN;
+use super::fast::{Corner, FastDetector, Rect};
+use super::gray::{BlurScratch, GrayBuf, GrayView, ResizeScratch, gaussian_blur7, resize_bilinear};
+use super::quadtree::Quadtree;
+use super::{Descriptor, FeatureError, Features, Keypoint};
+
+/// Harris constant `k` of `det(M) - k tr(M)^2`.
+pub const HARRIS_K: f32 = 0.04;
+/// Side of the Harris window (pixels).
+pub const HARRIS_BLOCK: usize = 7;
+/// Largest coordinate of a test point in [`BRIEF_PATTERN`] (rotated, it reaches
+/// `13 * sqrt(2) < 19`, hence the minimum edge threshold).
+pub const PATTERN_RADIUS: i32 = 13;
+/// The smallest usable [`OrbParams::edge_threshold`]: a rotated test point and the
+/// orientation disc of a 31-pixel patch stay inside the image.
+pub const MIN_EDGE_THRESHOLD: usize = 19;
+
+/// ORB parameters. `Default` is the paper's front end (DESIGN.md section 6).
+#[derive(Clone, Debug, PartialEq)]
+pub struct OrbParams {
+    /// Number of features to keep over all levels (default 2000).
+    pub n_features: usize,
+    /// Ratio between consecutive pyramid levels (default 1.2).
+    pub scale_factor: f32,
+    /// Number of pyramid levels (default 8).
+    pub n_levels: usize,
+    /// FAST threshold (intensity difference) tried first (default 20).
+    pub fast_threshold: u8,
+    /// FAST threshold for cells where the first found nothing (default 7).
+    pub min_fast_threshold: u8,
+    /// Keypoints are at least this far from the border of their level, pixels (default 19).
+    pub edge_threshold: usize,
+    /// Diameter of the orientation patch, pixels (default 31).
+    pub patch_size: usize,
+    /// Side of the cells of the FAST fallback, pixels (default 30).
+    pub cell_size: usize,
+}
+
+impl Default for OrbParams {
+    fn default() -> Self {
+        Self {
+            n_features: 2000,
+            scale_factor: 1.2,
+            n_levels: 8,
+            fast_threshold: 20,
+            min_fast_threshold: 7,
+            edge_threshold: 19,
+            patch_size: 31,
+            cell_size: 30,
+        }
+    }
+}
+
+impl OrbParams {
+    /// Checks the parameters.
+    ///
+    /// # Errors
+    /// [`FeatureError::InvalidParam`] naming the offending field and value.
+    pub fn validate(&self) -> Result<(), FeatureError> {
+        let bad = |name: &'static str, value: f64| Err(FeatureError::InvalidParam { name, value });
+        if !(self.scale_factor > 1.0 && self.scale_factor.is_finite()) {
+            return bad("scale_factor", f64::from(self.scale_factor));
+        }
+        if self.n_levels == 0 || self.n_levels > 32 {
+            return bad("n_levels", self.n_levels as f64);
+        }
+        if self.edge_threshold < MIN_EDGE_THRESHOLD || self.edge_threshold < self.patch_size / 2 + 1
+        {
+            return bad("edge_threshold", self.edge_threshold as f64);
+        }
+        if self.patch_size < 3 {
+            return bad("patch_size", self.patch_size as f64);
+        }
+        if self.cell_size < 8 {
+            return bad("cell_size", self.cell_size as f64);
+        }
+        if self.min_fast_threshold == 0 || self.min_fast_threshold > self.fast_threshold {
+            return bad("min_fast_threshold", f64::from(self.min_fast_threshold));
+        }
+        Ok(())
+    }
+
+    /// The per-level quotas `n_l` (module docs, step 3), summing to `n_features`.
+    pub fn level_quotas(&self) -> Vec<usize> {
+        let inv = 1.0 / f64::from(self.scale_factor);
+        let l = self.n_levels;
+        let first = self.n_features as f64 * (1.0 - inv) / (1.0 - inv.powi(l as i32));
+        let mut q: Vec<usize> = (0..l)
+            .map(|i| (first * inv.powi(i as i32)).round() as usize)
+            .collect();
+        let head: usize = q[..l - 1].iter().sum();
+        q[l - 1] = self.n_features.saturating_sub(head);
+        q
+    }
+}
+
+/// Reusable ORB state: pyramid, smoothed images and scratch buffers.
+#[derive(Clone, Debug)]
+pub struct OrbExtractor {
+    params: OrbParams,
+    quotas: Vec<usize>,
+    scales: Vec<f32>,
+    levels: Vec<GrayBuf>,
+    blurred: GrayBuf,
+    resize_scratch: ResizeScratch,
+    blur_scratch: BlurScratch,
+    fast: FastDetector,
+    quad: Quadtree,
+    corners: Vec<Corner>,
+    cell_count: Vec<u32>,
+    xy: Vec<[f32; 2]>,
+    resp: Vec<f32>,
+    sub_xy: Vec<[f32; 2]>,
+    sub_resp: Vec<f32>,
+    chosen: Vec<u32>,
+    chosen2: Vec<u32>,
+    umax: Vec<i32>,
+    pattern: Box<SoaPattern>,
+}
+
+impl OrbExtractor {
+    /// An extractor for `params`.
+    ///
+    /// # Errors
+    /// [`FeatureError::InvalidParam`] from [`OrbParams::validate`].
+    pub fn new(params: OrbParams) -> Result<Self, FeatureError> {
+        params.validate()?;
+        let quotas = params.level_quotas();
+        let scales = (0..params.n_levels)
+            .map(|l| params.scale_factor.powi(l as i32))
+            .collect();
+        let half = (params.patch_size / 2) as i32;
+        let umax = (0..=half)
+            .map(|v| (f64::from(half * half - v * v)).sqrt().round() as i32)
+            .collect();
+        let pattern = soa_pattern();
+        Ok(Self {
+            params,
+            quotas,
+            scales,
+            levels: Vec::new(),
+            blurred: GrayBuf::default(),
+            resize_scratch: ResizeScratch::default(),
+            blur_scratch: BlurScratch::default(),
+            fast: FastDetector::new(),
+            quad: Quadtree::new(),
+            corners: Vec::new(),
+            cell_count: Vec::new(),
+            xy: Vec::new(),
+            resp: Vec::new(),
+            sub_xy: Vec::new(),
+            sub_resp: Vec::new(),
+            chosen: Vec::new(),
+            chosen2: Vec::new(),
+            umax,
+            pattern,
+        })
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &OrbParams {
+        &self.params
+    }
+
+    /// Detects and describes ORB features of `img` into `out` (cleared first), grouped by
+    /// level (finest first). Levels smaller than the border are skipped.
+    ///
+    /// # Errors
+    /// [`FeatureError::ImageTooSmall`] when level 0 has no room for a keypoint.
+    pub fn detect_and_describe(
+        &mut self,
+        img: &GrayView<'_>,
+        out: &mut Features,
+    ) -> Result<(), FeatureError> {
+        out.keypoints.clear();
+        out.descriptors.clear();
+        let edge = self.params.edge_threshold;
+        let min = 2 * edge + 1;
+        if img.width() < min || img.height() < min {
+            return Err(FeatureError::ImageTooSmall {
+                width: img.width(),
+                height: img.height(),
+                min,
+            });
+        }
+        self.build_pyramid(img);
+        let n_levels = self.levels.len();
+        // Coarsest level first (shortfalls carry down), appended straight into `out`; the
+        // level blocks are put back finest-first by two reversals, without allocating.
+        let mut counts = [0usize; 32];
+        let mut carry = 0usize;
+        for l in (0..n_levels).rev() {
+            let quota = self.quotas.get(l).copied().unwrap_or(0) + carry;
+            let before = out.keypoints.len();
+            self.process_level(l, quota, &mut out.keypoints, &mut out.descriptors);
+            let got = out.keypoints.len() - before;
+            if let Some(c) = counts.get_mut(l) {
+                *c = got;
+            }
+            carry = quota.saturating_sub(got);
+        }
+        out.keypoints.reverse();
+        out.descriptors.reverse();
+        let mut start = 0;
+        for &c in counts.iter().take(n_levels) {
+            out.keypoints[start..start + c].reverse();
+            out.descriptors[start..start + c].reverse();
+            start += c;
+        }
+        Ok(())
+    }
+
+    /// Level 0 = a copy of the input; level l = bilinear resize of level l - 1 to
+    /// `round(size_0 / s^l)`. Levels too small for the border are dropped.
+    fn build_pyramid(&mut self, img: &GrayView<'_>) {
+        let n = self.params.n_levels;
+        self.levels.resize_with(n, GrayBuf::default);
+        self.levels[0].copy_from(img);
+        let min = 2 * self.params.edge_threshold + 1;
+        let mut used = 1;
+        for l in 1..n {
+            let s = self.scales[l];
+            let w = (img.width() as f32 / s).round() as usize;
+            let h = (img.height() as f32 / s).round() as usize;
+            if w < min || h < min {
+                break;
+            }
+            let (done, rest) = self.levels.split_at_mut(l);
+            let dst = &mut rest[0];
+            dst.reshape(w, h);
+            resize_bilinear(&done[l - 1].view(), dst, &mut self.resize_scratch);
+            used = l + 1;
+        }
+        self.levels.truncate(used);
+    }
+
+    fn process_level(
+        &mut self,
+        l: usize,
+        quota: usize,
+        kps: &mut Vec<Keypoint>,
+        descs: &mut Vec<Descriptor>,
+    ) {
+        let p = &self.params;
+        let edge = p.edge_threshold;
+        let level = &self.levels[l];
+        let (w, h) = (level.width, level.height);
+        let view = level.view();
+        let region = Rect {
+            x0: edge,
+            y0: edge,
+            x1: w - edge,
+            y1: h - edge,
+        };
+        // 1. FAST with the per-cell fallback.
+        self.corners.clear();
+        self.fast
+            .detect(&view, region, p.fast_threshold, true, &mut self.corners);
+        let (rw, rh) = (region.x1 - region.x0, region.y1 - region.y0);
+        let ncols = (rw / p.cell_size).max(1);
+        let nrows = (rh / p.cell_size).max(1);
+        let cw = rw.div_ceil(ncols);
+        let ch = rh.div_ceil(nrows);
+        self.cell_count.clear();
+        self.cell_count.resize(ncols * nrows, 0);
+        for c in &self.corners {
+            let cx = ((c.x as usize - region.x0) / cw).min(ncols - 1);
+            let cy = ((c.y as usize - region.y0) / ch).min(nrows - 1);
+            self.cell_count[cy * ncols + cx] += 1;
+        }
+        for cy in 0..nrows {
+            for cx in 0..ncols {
+                if self.cell_count[cy * ncols + cx] > 0 {
+                    continue;
+                }
+                let cell = Rect {
+                    x0: region.x0 + cx * cw,
+                    y0: region.y0 + cy * ch,
+                    x1: (region.x0 + (cx + 1) * cw).min(region.x1),
+                    y1: (region.y0 + (cy + 1) * ch).min(region.y1),
+                };
+                self.fast
+                    .detect(&view, cell, p.min_fast_threshold, true, &mut self.corners);
+            }
+        }
+        if self.corners.is_empty() || quota == 0 {
+            return;
+        }
+        let bounds = (
+            region.x0 as f32,
+            region.y0 as f32,
+            region.x1 as f32,
+            region.y1 as f32,
+        );
+        self.xy.clear();
+        self.xy
+            .extend(self.corners.iter().map(|c| [c.x as f32, c.y as f32]));
+        // 2. Thin by FAST score (spread kept), then rank by Harris.
+        self.resp.clear();
+        self.resp
+            .extend(self.corners.iter().map(|c| f32::from(c.score)));
+        let keep_fast = 2 * quota;
+        if self.corners.len() > keep_fast {
+            self.quad
+                .distribute(&self.xy, &self.resp, bounds, keep_fast, &mut self.chosen);
+        } else {
+            self.chosen.clear();
+            self.chosen.extend(0..self.corners.len() as u32);
+        }
+        let (sub_xy, sub_resp) = (&mut self.sub_xy, &mut self.sub_resp);
+        sub_xy.clear();
+        sub_resp.clear();
+        for &i in &self.chosen {
+            let c = self.corners[i as usize];
+            sub_xy.push([c.x as f32, c.y as f32]);
+            sub_resp.push(harris_response(&view, c.x as usize, c.y as usize));
+        }
+        // 3. Quadtree to the quota, best Harris per node.
+        self.quad
+            .distribute(sub_xy, sub_resp, bounds, quota, &mut self.chosen2);
+        // 4-5. Orientation and descriptor.
+        self.blurred.reshape(w, h);
+        gaussian_blur7(&view, &mut self.blurred, &mut self.blur_scratch);
+        let blurred = self.blurred.view();
+        let scale = self.scales[l];
+        for &j in &self.chosen2 {
+            let [x, y] = sub_xy[j as usize];
+            let (xi, yi) = (x as usize, y as usize);
+            let angle = ic_angle(&view, xi, yi, &self.umax);
+            let d = describe(&blurred, xi, yi, angle, &self.pattern);
+            kps.push(Keypoint {
+                x: x * scale,
+                y: y * scale,
+                level: l as u8,
+                angle_rad: angle,
+                response: sub_resp[j as usize],
+                size: p.patch_size as f32 * scale,
+            });
+            descs.push(d);
+        }
+    }
+}
+
+/// Harris response at `(x, y)` over a [`HARRIS_BLOCK`]-square window of 3x3 Sobel
+/// gradients, `(a b - c^2 - k (a + b)^2) / (4 * 7 * 255)^4` with `a = sum Ix^2`,
+/// `b = sum Iy^2`, `c = sum Ix Iy` (OpenCV's scaling). The caller keeps the window
+/// (radius 4 with the Sobel taps) inside the image; pixels outside read as 0.
+pub fn harris_response(img: &GrayView<'_>, x: usize, y: usize) -> f32 {
+    let r = (HARRIS_BLOCK / 2) as isize;
+    let stride = img.stride() as isize;
+    let data = img.data();
+    let px = |o: isize| -> i32 { data.get(o as usize).map_or(0, |&v| i32::from(v)) };
+    let (mut a, mut b, mut c) = (0i64, 0i64, 0i64);
+    for dy in -r..=r {
+        for dx in -r..=r {
+            let o = (y as isize + dy) * stride + x as isize + dx;
+            let ix = (px(o + 1) - px(o - 1)) * 2
+                + (px(o - stride + 1) - px(o - stride - 1))
+                + (px(o + stride + 1) - px(o + stride - 1));
+            let iy = (px(o + stride) - px(o - stride)) * 2
+                + (px(o + stride - 1) - px(o - stride - 1))
+                + (px(o + stride + 1) - px(o - stride + 1));
+            a += i64::from(ix * ix);
+            b += i64::from(iy * iy);
+            c += i64::from(ix * iy);
+        }
+    }
+    let scale = 1.0 / (4.0 * HARRIS_BLOCK as f64 * 255.0);
+    let s4 = scale * scale * scale * scale;
+    let (a, b, c) = (a as f64, b as f64, c as f64);
+    ((a * b - c * c - f64::from(HARRIS_K) * (a + b) * (a + b)) * s4) as f32
+}
+
+/// Intensity-centroid orientation (ORB eq. 1-3) over the disc `|v| <= r`,
+/// `|u| <= umax[|v|]`, `r = umax.len() - 1`: `atan2(m01, m10)` in radians, `(-pi, pi]`,
+/// in image axes (x right, y down). The caller keeps the disc inside the image.
+pub fn ic_angle(img: &GrayView<'_>, x: usize, y: usize, umax: &[i32]) -> f32 {
+    let (mut m01, mut m10) = (0i64, 0i64);
+    let r = umax.len() as isize - 1;
+    for v in -r..=r {
+        let Some(row) = img.row((y as isize + v) as usize) else {
+            continue;
+        };
+        let d = umax.get(v.unsigned_abs()).copied().unwrap_or(0) as isize;
+        let lo = (x as isize - d).max(0) as usize;
+        let hi = ((x as isize + d) as usize).min(row.len().saturating_sub(1));
+        let Some(seg) = row.get(lo..=hi) else {
+            continue;
+        };
+        let mut sum = 0i64;
+        let mut wsum = 0i64;
+        for (k, &p) in seg.iter().enumerate() {
+            let u = lo as i64 + k as i64 - x as i64;
+            sum += i64::from(p);
+            wsum += u * i64::from(p);
+        }
+        m10 += wsum;
+        m01 += v as i64 * sum;
+    }
+    (m01 as f64).atan2(m10 as f64) as f32
+}
+
+/// The test pattern as four coordinate arrays (`x1`, `y1`, `x2`, `y2`), the layout
+/// [`describe`] rotates with vector instructions.
+pub type SoaPattern = [[f32; 256]; 4];
+
+/// [`BRIEF_PATTERN`] as a [`SoaPattern`].
+pub fn soa_pattern() -> Box<SoaPattern> {
+    let mut p = Box::new([[0f32; 256]; 4]);
+    for (i, t) in BRIEF_PATTERN.iter().enumerate() {
+        for c in 0..4 {
+            p[c][i] = f32::from(t[c]);
+        }
+    }
+    p
+}
+
+/// Steered BRIEF descriptor of the keypoint `(x, y)` on the smoothed image (module docs,
+/// step 5): test points rotated by `angle`, rounded to the nearest pixel, then compared;
+/// bit `i` is bit `i % 64` of word `i / 64`. Points outside the image read as 0 (the
+/// caller keeps keypoints [`MIN_EDGE_THRESHOLD`] from the border, so none are).
+pub fn describe(
+    blurred: &GrayView<'_>,
+    x: usize,
+    y: usize,
+    angle: f32,
+    pattern: &SoaPattern,
+) -> Descriptor {
+    let (s, c) = angle.sin_cos();
+    let stride = blurred.stride() as i32;
+    let data = blurred.data();
+    let centre = (y * blurred.stride() + x) as isize;
+    // Rotated offsets, computed for all tests at once (vectorised: SoA, no branches).
+    let mut off1 = [0i32; 256];
+    let mut off2 = [0i32; 256];
+    for i in 0..256 {
+        let (x1, y1, x2, y2) = (pattern[0][i], pattern[1][i], pattern[2][i], pattern[3][i]);
+        off1[i] = (x1 * c - y1 * s).round() as i32 + (x1 * s + y1 * c).round() as i32 * stride;
+        off2[i] = (x2 * c - y2 * s).round() as i32 + (x2 * s + y2 * c).round() as i32 * stride;
+    }
+    let at = |o: i32| {
+        data.get((centre + o as isize) as usize)
+            .copied()
+            .unwrap_or(0)
+    };
+    let mut words = [0u64; 4];
+    for (w, word) in words.iter_mut().enumerate() {
+        let mut bits = 0u64;
+        for k in 0..64 {
+            let i = w * 64 + k;
+            bits |= u64::from(at(off1[i]) < at(off2[i])) << k;
+        }
+        *word = bits;
+    }
+    Descriptor(words)
+}
