@@ -1,5 +1,6 @@
 //! Hand-eye self-calibration: ORB features, matching, GMS, relative pose, AX=XB solvers, refinement.
 
+pub mod board;
 pub mod features;
 pub mod handeye;
 pub mod relpose;
