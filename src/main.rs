@@ -25,7 +25,7 @@ enum Command {
     Record(cmd::record::RecordArgs),
     /// Replay a recording through the current pipeline: check, what-if.
     Replay(cmd::replay::ReplayArgs),
-    /// Calibration tools: hand-eye from pose files.
+    /// Calibration tools: hand-eye from pose files, image matching.
     #[command(subcommand)]
     Calib(cmd::calib::CalibCommand),
     /// Import a dataset on disk as a recording.

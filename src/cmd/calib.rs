@@ -1,5 +1,8 @@
 //! `rodlog calib ...`: calibration tools (DESIGN.md section 4).
 //!
+//! `calib match` runs the calibration front end on two images: the tool a user reaches for
+//! when a calibration looks wrong.
+//!
 //! `calib handeye` solves AX=XB from two TUM pose files: hand = `base_from_tool0`, eye =
 //! `world_from_camera`, paired by equal timestamp. The result is always
 //! **tool0_from_camera** (maps camera coordinates to tool0 coordinates).
@@ -18,6 +21,50 @@ const CAMERA_FRAME: &str = msgs::frames::CAMERA_COLOR_OPTICAL_FRAME;
 pub enum CalibCommand {
     /// Hand-eye calibration (AX=XB) from hand and eye pose files (TUM format).
     Handeye(HandeyeArgs),
+    /// Match two images the way calibration does (ORB + quadtree, BF Hamming, GMS).
+    Match(MatchArgs),
+    /// Hand-eye calibration from a recording of a chessboard (corners, PnP, AX=XB).
+    Board(BoardArgs),
+}
+
+/// Arguments of `rodlog calib board`.
+#[derive(Debug, Args)]
+pub struct BoardArgs {
+    /// Recording with wrist images, camera info and the arm's /tf.
+    pub rec: PathBuf,
+    /// Inner corners, COLSxROWS (e.g. 6x8).
+    #[arg(long)]
+    pub board: String,
+    /// Square size, metres.
+    #[arg(long)]
+    pub square: f64,
+    /// Hand-eye solver (as for `calib handeye`).
+    #[arg(long, default_value = "ours")]
+    pub method: String,
+    /// Print one JSON object (DESIGN.md section 4) on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Arguments of `rodlog calib match`.
+#[derive(Debug, Args)]
+pub struct MatchArgs {
+    /// First image (PNG or JPEG).
+    pub image_a: PathBuf,
+    /// Second image.
+    pub image_b: PathBuf,
+    /// orb-gms (default: the paper's front end) or orb-bf (cross-checked, no filter).
+    #[arg(long, default_value = "orb-gms")]
+    pub method: String,
+    /// Features per image.
+    #[arg(long, default_value_t = 2000)]
+    pub features: usize,
+    /// Print the match JSON (DESIGN.md section 4) on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Write a side-by-side picture of the matches (kept green, rejected red).
+    #[arg(short = 'o', long = "out")]
+    pub picture: Option<PathBuf>,
 }
 
 /// Arguments of `rodlog calib handeye`.
@@ -44,17 +91,13 @@ pub struct HandeyeArgs {
 pub fn run(command: &CalibCommand) -> Result<()> {
     match command {
         CalibCommand::Handeye(args) => handeye(args),
+        CalibCommand::Match(args) => match_images(args),
+        CalibCommand::Board(args) => board(args),
     }
 }
 
 fn handeye(args: &HandeyeArgs) -> Result<()> {
-    let method: Method = match args.method.parse() {
-        Ok(m) => m,
-        Err(_) => bail!(
-            "unknown hand-eye method '{}': use one of ours, kronecker, tsai, park, horaud, andreff, daniilidis",
-            args.method
-        ),
-    };
+    let method = parse_method(&args.method)?;
     let hand = std::fs::read_to_string(&args.hand)
         .with_context(|| format!("cannot read hand poses {}", args.hand.display()))?;
     let eye = std::fs::read_to_string(&args.eye)
@@ -67,9 +110,80 @@ fn handeye(args: &HandeyeArgs) -> Result<()> {
     let solution = solve_tum(&hand, &eye, &opts).context("hand-eye calibration refused")?;
     if args.json {
         let value = calibration_json(&solution, method.name(), "poses", CAMERA_FRAME);
-        println!("{}", serde_json::to_string(&value)?);
+        super::print_stdout(&serde_json::to_string(&value)?)?;
     } else {
         print_human(&solution, method);
+    }
+    Ok(())
+}
+
+fn parse_method(name: &str) -> Result<Method> {
+    name.parse().map_err(|_| {
+        anyhow::anyhow!(
+            "unknown hand-eye method '{name}': use one of ours, kronecker, tsai, park, horaud, andreff, daniilidis"
+        )
+    })
+}
+
+fn board(args: &BoardArgs) -> Result<()> {
+    use calib::board::{BoardOptions, BoardSpec, calibrate_board_views};
+    let method = parse_method(&args.method)?;
+    let spec = BoardSpec::from_arg(&args.board, args.square)?;
+    let (views, camera) = super::recording_views::read_views(&args.rec)?;
+    let images: Vec<image::GrayImage> = views.iter().map(|v| v.gray.clone()).collect();
+    let board_views = calibrate_board_views(&images, &camera, &spec, &BoardOptions::default())
+        .context("board calibration refused")?;
+    let hand: Vec<_> = views.iter().map(|v| v.base_from_tool0).collect();
+    let eye: Vec<_> = board_views.iter().map(|b| b.world_from_camera).collect();
+    let opts = HandEyeOptions {
+        method,
+        ..HandEyeOptions::default()
+    };
+    let solution =
+        calib::handeye::solve(&hand, &eye, &opts).context("hand-eye calibration refused")?;
+    if args.json {
+        let value = calibration_json(&solution, method.name(), "poses", CAMERA_FRAME);
+        super::print_stdout(&serde_json::to_string(&value)?)?;
+    } else {
+        let rms: Vec<f64> = board_views.iter().map(|b| b.rms_px).collect();
+        let worst = rms.iter().copied().fold(0.0_f64, f64::max);
+        println!(
+            "board {}x{} ({:.1} mm squares) found in {} of {} images, reprojection RMS <= {worst:.3} px",
+            spec.cols,
+            spec.rows,
+            args.square * 1e3,
+            board_views.len(),
+            views.len()
+        );
+        print_human(&solution, method);
+    }
+    Ok(())
+}
+
+fn match_images(args: &MatchArgs) -> Result<()> {
+    use calib::features::command::{MatchCommand, match_json, match_summary, run_match_command};
+    if args.features == 0 {
+        bail!("--features must be at least 1");
+    }
+    let command = MatchCommand {
+        method: args.method.parse().with_context(|| {
+            format!(
+                "unknown match method '{}': use orb-gms or orb-bf",
+                args.method
+            )
+        })?,
+        n_features: args.features,
+        picture: args.picture.clone(),
+        ..MatchCommand::new(&args.image_a, &args.image_b)
+    };
+    let result = run_match_command(&command)?;
+    if args.json {
+        super::print_stdout(&match_json(&result))?;
+    } else {
+        println!("{}", match_summary(&result));
+        if let Some(p) = &args.picture {
+            println!("picture: {}", p.display());
+        }
     }
     Ok(())
 }
