@@ -107,12 +107,33 @@ impl DepthSensorParams {
     /// Measured depth (NaN = hole) of a pixel at `(col, row)` with index `pixel`.
     #[must_use]
     pub fn measure(&self, s: &DepthSample, seed: u64, pixel: u64, col: u32, row: u32) -> f32 {
+        self.measure_with(self.max_incidence_cos(), s, seed, pixel, col, row)
+    }
+
+    /// Cosine of [`Self::max_incidence_deg`] (the grazing-hole threshold).
+    #[must_use]
+    pub fn max_incidence_cos(&self) -> f64 {
+        self.max_incidence_deg.to_radians().cos()
+    }
+
+    /// [`Self::measure`] with the grazing threshold `max_incidence_cos`
+    /// ([`Self::max_incidence_cos`]) computed once per capture instead of per pixel.
+    #[must_use]
+    pub fn measure_with(
+        &self,
+        max_incidence_cos: f64,
+        s: &DepthSample,
+        seed: u64,
+        pixel: u64,
+        col: u32,
+        row: u32,
+    ) -> f32 {
         if !(s.z_m >= self.min_range_m && s.z_m <= self.max_range_m) {
             return f32::NAN;
         }
         let seed = seed ^ DEPTH_SALT;
         if self.holes_enabled {
-            if s.cos_incidence < self.max_incidence_deg.to_radians().cos() {
+            if s.cos_incidence < max_incidence_cos {
                 return f32::NAN;
             }
             if s.metal && s.cos_incidence > self.specular_hole_cos {

@@ -97,24 +97,49 @@ pub fn trace(
         hints.primary = found;
     }
     let Some(hit) = found else {
-        let s = setup.light.sky_radiance(&ray.dir);
-        return Shaded {
-            radiance: [s[0] as f32, s[1] as f32, s[2] as f32],
-            key: u32::MAX,
-            depth: None,
-            t_m: f64::INFINITY,
-        };
+        return shade_sky(setup, ray);
     };
-    shade_hit(scene, setup, ray, &hit, footprint_per_m, &mut hints.shadow)
+    let shadow_hint = &mut hints.shadow;
+    shade_hit(scene, setup, ray, &hit, footprint_per_m, |r| {
+        scene.occluded_hinted(r, 0.0, f64::INFINITY, shadow_hint)
+    })
 }
 
-fn shade_hit(
+/// Radiance of the sky seen along a ray that hit nothing.
+#[must_use]
+pub fn shade_sky(setup: &LightSetup, ray: &Ray) -> Shaded {
+    let s = setup.light.sky_radiance(&ray.dir);
+    Shaded {
+        radiance: [s[0] as f32, s[1] as f32, s[2] as f32],
+        key: u32::MAX,
+        depth: None,
+        t_m: f64::INFINITY,
+    }
+}
+
+impl LightSetup {
+    /// Whether shading casts shadow rays towards the sun (enabled and the sun is up).
+    #[must_use]
+    pub fn casts_shadows(&self) -> bool {
+        self.shadows && self.e_sun > 0.0
+    }
+
+    /// Unit direction towards the sun.
+    #[must_use]
+    pub fn sun_direction(&self) -> Vector3<f64> {
+        self.sun_dir
+    }
+}
+
+/// Shades a hit of `ray`; `occluded` answers shadow rays (origin offset by
+/// [`SHADOW_BIAS_M`] along the normal, direction to the sun, `t` in `(0, inf)`).
+pub fn shade_hit(
     scene: &Scene,
     setup: &LightSetup,
     ray: &Ray,
     hit: &Hit,
     footprint_per_m: f64,
-    shadow_hint: &mut Option<Hit>,
+    mut occluded: impl FnMut(&Ray) -> bool,
 ) -> Shaded {
     let key =
         crate::scene::noise::hash_u32((hit.key() ^ (hit.key() >> 29)) as u32).min(u32::MAX - 1);
@@ -146,15 +171,10 @@ fn shade_hit(
     if ndl > 0.0 && setup.e_sun > 0.0 {
         let visible = !setup.shadows || {
             let origin: Point3<f64> = sp.point + n * SHADOW_BIAS_M;
-            !scene.occluded_hinted(
-                &Ray {
-                    origin,
-                    dir: setup.sun_dir,
-                },
-                0.0,
-                f64::INFINITY,
-                shadow_hint,
-            )
+            !occluded(&Ray {
+                origin,
+                dir: setup.sun_dir,
+            })
         };
         if visible {
             e_direct = setup.e_sun * ndl;

@@ -10,6 +10,11 @@
 //! Layout: depth-first array; an interior node's left child follows it, the right child index
 //! is stored. Traversal keeps a fixed stack of [`STACK_DEPTH`] node indices on the call stack
 //! and visits the nearer child first.
+//!
+//! Culling ([`Bvh::cull`]): for a bundle of rays contained in a convex volume given as slabs
+//! `lo <= n.p <= hi`, a primitive can only be hit if its box overlaps every slab (interval
+//! test `|n.c| +- |n|.h`, conservative); the renderer culls once per pixel tile and per
+//! tile's shadow beam, then tests each ray against the few candidates only.
 
 use super::primitives::{Aabb, Primitive, Ray};
 
@@ -70,7 +75,74 @@ impl Node {
 pub struct Bvh {
     nodes: Vec<Node>,
     prims: Vec<Primitive>,
+    /// Padded f32 box of each primitive (`index` = the primitive), for culling.
+    prim_boxes: Vec<Node>,
     bounds: Option<Aabb>,
+}
+
+/// One slab `lo <= normal . p <= hi` of a convex culling volume (world units; `lo`/`hi` may
+/// be infinite).
+#[derive(Clone, Copy, Debug)]
+pub struct Slab {
+    /// Slab normal (any length).
+    pub normal: [f64; 3],
+    /// Lower bound of `normal . p`.
+    pub lo: f64,
+    /// Upper bound of `normal . p`.
+    pub hi: f64,
+}
+
+/// Primitives that a bundle of rays may hit, found by culling the hierarchy with a convex
+/// volume containing every ray of the bundle (see [`Bvh::cull`]).
+#[derive(Clone, Debug, Default)]
+pub struct Candidates {
+    boxes: Vec<Node>,
+    /// More than the limit passed to [`Bvh::cull`] matched: traverse the hierarchy instead.
+    overflow: bool,
+    /// Movable objects whose world box overlaps the volume (filled by `Scene::cull`).
+    pub(crate) objects: Vec<u32>,
+}
+
+impl Candidates {
+    /// Number of candidates (meaningless when [`Self::overflowed`]).
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.boxes.len()
+    }
+
+    /// Whether there are no candidates (and no overflow).
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.boxes.is_empty() && !self.overflow
+    }
+
+    /// Whether the culling gave up (too many candidates).
+    #[must_use]
+    pub fn overflowed(&self) -> bool {
+        self.overflow
+    }
+}
+
+/// Whether a node box overlaps every slab (conservative box-vs-slab interval test).
+#[inline]
+fn overlaps_slabs(n: &Node, slabs: &[Slab]) -> bool {
+    box_overlaps_slabs(
+        [0, 1, 2].map(|k| f64::from(n.lo[k])),
+        [0, 1, 2].map(|k| f64::from(n.hi[k])),
+        slabs,
+    )
+}
+
+/// Whether the box `[lo, hi]` overlaps every slab (interval test `n.c +- |n|.h`).
+#[inline]
+pub(crate) fn box_overlaps_slabs(lo: [f64; 3], hi: [f64; 3], slabs: &[Slab]) -> bool {
+    let c = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
+    let h = [0, 1, 2].map(|k| 0.5 * (hi[k] - lo[k]));
+    slabs.iter().all(|s| {
+        let d = s.normal[0] * c[0] + s.normal[1] * c[1] + s.normal[2] * c[2];
+        let r = s.normal[0].abs() * h[0] + s.normal[1].abs() * h[1] + s.normal[2].abs() * h[2];
+        d + r >= s.lo && d - r <= s.hi
+    })
 }
 
 /// Closest hit in a BVH.
@@ -104,9 +176,15 @@ impl Bvh {
         for b in &bounds {
             all.grow(b);
         }
+        let prim_boxes = order
+            .iter()
+            .enumerate()
+            .filter_map(|(k, &i)| Some(Node::new(bounds.get(i)?, k as u32, 1)))
+            .collect();
         Self {
             nodes,
             prims: reorder(prims, &order),
+            prim_boxes,
             bounds: Some(all),
         }
     }
@@ -176,6 +254,112 @@ impl Bvh {
         hit
     }
 
+    /// Collects into `out` every primitive whose (padded) box overlaps all `slabs`: when the
+    /// slabs bound a bundle of rays, the closest and any hit of each ray over `out` equal
+    /// those over the whole hierarchy. Gives up (`out.overflowed()`) beyond `limit`
+    /// candidates. Candidates are sorted by the distance of their box centre to `near`
+    /// (nearest first), ties by primitive index.
+    pub fn cull(&self, slabs: &[Slab], near: [f64; 3], limit: usize, out: &mut Candidates) {
+        out.boxes.clear();
+        out.overflow = false;
+        if self.nodes.is_empty() {
+            return;
+        }
+        let mut stack = [0u32; STACK_DEPTH];
+        let mut sp = 1usize;
+        while sp > 0 {
+            sp -= 1;
+            let ni = stack[sp];
+            let Some(node) = self.nodes.get(ni as usize) else {
+                continue;
+            };
+            if !overlaps_slabs(node, slabs) {
+                continue;
+            }
+            if node.count > 0 {
+                let (a, b) = (node.index as usize, (node.index + node.count) as usize);
+                for pb in self.prim_boxes.get(a..b).unwrap_or(&[]) {
+                    if overlaps_slabs(pb, slabs) {
+                        if out.boxes.len() >= limit {
+                            out.overflow = true;
+                            out.boxes.clear();
+                            return;
+                        }
+                        out.boxes.push(*pb);
+                    }
+                }
+            } else if sp + 2 <= STACK_DEPTH {
+                // The left child follows its parent; the right one is stored.
+                stack[sp] = node.index;
+                stack[sp + 1] = ni + 1;
+                sp += 2;
+            }
+        }
+        let key = |n: &Node| {
+            let d = [0, 1, 2].map(|k| 0.5 * (f64::from(n.lo[k]) + f64::from(n.hi[k])) - near[k]);
+            d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+        };
+        out.boxes
+            .sort_by(|a, b| key(a).total_cmp(&key(b)).then(a.index.cmp(&b.index)));
+    }
+
+    /// Closest hit over culled candidates (the whole hierarchy if they overflowed).
+    #[inline]
+    #[must_use]
+    pub fn intersect_candidates(
+        &self,
+        cands: &Candidates,
+        ray: &Ray,
+        t_min: f64,
+        t_max: f64,
+    ) -> Option<BvhHit> {
+        if cands.overflow {
+            return self.intersect(ray, t_min, t_max);
+        }
+        let (o, inv) = f32_ray(ray);
+        let mut best = None;
+        let mut t_best = t_max;
+        for c in &cands.boxes {
+            if c.hit(&o, &inv, t_best as f32).is_none() {
+                continue;
+            }
+            let Some(p) = self.prims.get(c.index as usize) else {
+                continue;
+            };
+            if let Some(t) = p.shape.intersect(ray, t_min, t_best) {
+                t_best = t;
+                best = Some(BvhHit {
+                    t_m: t,
+                    prim: c.index,
+                });
+            }
+        }
+        best
+    }
+
+    /// Some candidate hit with `t` in `(t_min, t_max)` (any-hit over culled candidates; the
+    /// whole hierarchy if they overflowed).
+    #[inline]
+    #[must_use]
+    pub fn occluder_candidates(
+        &self,
+        cands: &Candidates,
+        ray: &Ray,
+        t_min: f64,
+        t_max: f64,
+    ) -> Option<u32> {
+        if cands.overflow {
+            return self.occluder(ray, t_min, t_max);
+        }
+        let (o, inv) = f32_ray(ray);
+        let t_hi = t_max as f32;
+        cands.boxes.iter().find_map(|c| {
+            c.hit(&o, &inv, t_hi)?;
+            let p = self.prims.get(c.index as usize)?;
+            p.shape.intersect(ray, t_min, t_max).map(|_| c.index)
+        })
+    }
+
     #[inline]
     fn traverse(
         &self,
@@ -187,16 +371,7 @@ impl Bvh {
         if self.nodes.is_empty() {
             return;
         }
-        let o = [
-            ray.origin.x as f32,
-            ray.origin.y as f32,
-            ray.origin.z as f32,
-        ];
-        let inv = [
-            (1.0 / ray.dir.x) as f32,
-            (1.0 / ray.dir.y) as f32,
-            (1.0 / ray.dir.z) as f32,
-        ];
+        let (o, inv) = f32_ray(ray);
         // Stack of (node, entry distance): nodes farther than the best hit found since they
         // were pushed are skipped when popped.
         let mut stack = [(0u32, 0.0f32); STACK_DEPTH];
@@ -254,6 +429,23 @@ impl Bvh {
             }
         }
     }
+}
+
+/// Ray origin and inverse direction in f32 for the node slab tests.
+#[inline]
+fn f32_ray(ray: &Ray) -> ([f32; 3], [f32; 3]) {
+    (
+        [
+            ray.origin.x as f32,
+            ray.origin.y as f32,
+            ray.origin.z as f32,
+        ],
+        [
+            (1.0 / ray.dir.x) as f32,
+            (1.0 / ray.dir.y) as f32,
+            (1.0 / ray.dir.z) as f32,
+        ],
+    )
 }
 
 struct BuildCtx<'a> {

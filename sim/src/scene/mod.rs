@@ -20,6 +20,7 @@ pub mod textures;
 use nalgebra::{Isometry3, Point3, Vector3};
 
 use bvh::Bvh;
+pub use bvh::{Candidates, Slab};
 pub use catenary::Catenary;
 pub use primitives::{Aabb, Primitive, Ray, Shape};
 pub use substation::{SubstationBuilder, SubstationLayout, SubstationParams};
@@ -486,6 +487,145 @@ impl Scene {
             }
         }
         best
+    }
+
+    /// Culls the static hierarchy and the movable objects with a convex volume (`slabs`)
+    /// that contains a bundle of rays (a pixel tile's frustum, a beam of shadow rays); see
+    /// [`Bvh::cull`]. `near` orders the static candidates (nearest box centre first), `limit`
+    /// caps their number.
+    pub fn cull(&self, slabs: &[Slab], near: [f64; 3], limit: usize, out: &mut Candidates) {
+        self.statics.cull(slabs, near, limit, out);
+        out.objects.clear();
+        for (i, obj) in self.objects.iter().enumerate() {
+            // A 1 mm pad covers the rounding of the transformed corners.
+            let lo = obj.world_bounds.min.map(|x| x - 1e-3);
+            let hi = obj.world_bounds.max.map(|x| x + 1e-3);
+            if bvh::box_overlaps_slabs(lo, hi, slabs) {
+                out.objects.push(i as u32);
+            }
+        }
+    }
+
+    /// [`Self::intersect`] for a ray inside the volume `statics` was culled with: the same
+    /// closest hit, testing only the candidate static primitives.
+    #[inline]
+    #[must_use]
+    pub fn intersect_culled(
+        &self,
+        ray: &Ray,
+        t_min: f64,
+        t_max: f64,
+        statics: &Candidates,
+    ) -> Option<Hit> {
+        let mut best = None;
+        let mut t_best = t_max;
+        if let Some(g) = &self.ground
+            && ray.dir.z != 0.0
+        {
+            let t = (g.height_m - ray.origin.z) / ray.dir.z;
+            if t > t_min && t < t_best {
+                t_best = t;
+                best = Some(Hit {
+                    t_m: t,
+                    source: HitSource::Ground,
+                    prim: 0,
+                });
+            }
+        }
+        if let Some(h) = self
+            .statics
+            .intersect_candidates(statics, ray, t_min, t_best)
+        {
+            t_best = h.t_m;
+            best = Some(Hit {
+                t_m: h.t_m,
+                source: HitSource::Static,
+                prim: h.prim,
+            });
+        }
+        self.intersect_objects(ray, t_min, t_best, best, &statics.objects)
+    }
+
+    /// [`Self::occluded`] for a ray inside the volume `statics` was culled with (same answer).
+    #[inline]
+    #[must_use]
+    pub fn occluded_culled(&self, ray: &Ray, t_min: f64, t_max: f64, statics: &Candidates) -> bool {
+        if let Some(g) = &self.ground
+            && ray.dir.z != 0.0
+        {
+            let t = (g.height_m - ray.origin.z) / ray.dir.z;
+            if t > t_min && t < t_max {
+                return true;
+            }
+        }
+        if self
+            .statics
+            .occluder_candidates(statics, ray, t_min, t_max)
+            .is_some()
+        {
+            return true;
+        }
+        self.objects_occlude(ray, t_min, t_max, &statics.objects)
+    }
+
+    /// Closest hit below `t_best` among the objects `which`, else `best`.
+    #[inline]
+    fn intersect_objects(
+        &self,
+        ray: &Ray,
+        t_min: f64,
+        mut t_best: f64,
+        mut best: Option<Hit>,
+        which: &[u32],
+    ) -> Option<Hit> {
+        if which.is_empty() {
+            return best;
+        }
+        let o = [ray.origin.x, ray.origin.y, ray.origin.z];
+        let inv = [1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z];
+        for &i in which {
+            let Some(obj) = self.objects.get(i as usize) else {
+                continue;
+            };
+            if obj.world_bounds.hit(&o, &inv, t_best).is_none() {
+                continue;
+            }
+            let local = Ray {
+                origin: obj.object_from_world * ray.origin,
+                dir: obj.object_from_world.rotation * ray.dir,
+            };
+            if let Some(h) = obj.bvh.intersect(&local, t_min, t_best) {
+                t_best = h.t_m;
+                best = Some(Hit {
+                    t_m: h.t_m,
+                    source: HitSource::Object(ObjectId(i)),
+                    prim: h.prim,
+                });
+            }
+        }
+        best
+    }
+
+    /// Whether one of the objects `which` blocks the ray within `(t_min, t_max)`.
+    #[inline]
+    fn objects_occlude(&self, ray: &Ray, t_min: f64, t_max: f64, which: &[u32]) -> bool {
+        if which.is_empty() {
+            return false;
+        }
+        let o = [ray.origin.x, ray.origin.y, ray.origin.z];
+        let inv = [1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z];
+        which
+            .iter()
+            .filter_map(|&i| self.objects.get(i as usize))
+            .any(|obj| {
+                obj.world_bounds.hit(&o, &inv, t_max).is_some() && {
+                    let local = Ray {
+                        origin: obj.object_from_world * ray.origin,
+                        dir: obj.object_from_world.rotation * ray.dir,
+                    };
+                    obj.bvh.occluder(&local, t_min, t_max).is_some()
+                }
+            })
     }
 
     /// Whether anything blocks the ray within `(t_min, t_max)` (shadow rays).

@@ -7,7 +7,11 @@
 //!   round (Chris Wellons, "Prospecting for hash functions", 2018), and SplitMix64 (Steele et al., OOPSLA 2014)
 //!   for 64-bit counters.
 //! * Value noise: hashed lattice values in [0, 1) blended with the quintic fade
-//!   `6t^5 - 15t^4 + 10t^3` (Perlin, SIGGRAPH 2002).
+//!   `6t^5 - 15t^4 + 10t^3` (Perlin, SIGGRAPH 2002). The lattice hash is the spread key
+//!   finished by half a `lowbias32` round (one multiply: value noise is the renderer's hot
+//!   spot, and only the top 24 bits are used); lattice indices come from the float bits
+//!   (exact below `2^22` cells, deterministic wrap beyond).
+//! * Cellular noise uses one hash per cell (both jitter coordinates) and squared distances.
 //! * fbm: `sum_o g^o * noise(l^o * x)` with lacunarity `l` and gain `g`; octaves whose
 //!   wavelength is below twice the pixel footprint fade out (a band limit, so textures do not
 //!   alias: the analytic half of the renderer's antialiasing).
@@ -32,9 +36,9 @@ pub fn hash_u32(mut x: u32) -> u32 {
 #[must_use]
 pub fn hash2(x: i32, y: i32, seed: u32) -> u32 {
     hash_u32(
-        (x as u32).wrapping_mul(0xc13f_a9a9)
-            ^ (y as u32).wrapping_mul(0x91e1_0da5)
-            ^ seed.wrapping_mul(0x9e37_79b9),
+        (x as u32).wrapping_mul(SPREAD_X)
+            ^ (y as u32).wrapping_mul(SPREAD_Y)
+            ^ seed.wrapping_mul(SPREAD_SEED),
     )
 }
 
@@ -54,7 +58,8 @@ pub fn hash3(x: i32, y: i32, z: i32, seed: u32) -> u32 {
 #[inline]
 #[must_use]
 pub fn unit_f32(h: u32) -> f32 {
-    (h >> 8) as f32 * (1.0 / 16_777_216.0)
+    // `h >> 8 < 2^24` fits an i32: one signed conversion, same value.
+    ((h >> 8) as i32) as f32 * (1.0 / 16_777_216.0)
 }
 
 /// SplitMix64 finaliser (bijective on u64).
@@ -93,18 +98,44 @@ fn fade(t: f32) -> f32 {
     t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
 }
 
-/// 2-D value noise in [0, 1) at (x, y) (lattice spacing 1).
+/// Odd multiplier spreading the x lattice coordinate (see [`hash2`]).
+const SPREAD_X: u32 = 0xc13f_a9a9;
+/// Odd multiplier spreading the y lattice coordinate (see [`hash2`]).
+const SPREAD_Y: u32 = 0x91e1_0da5;
+/// Odd multiplier spreading the seed (see [`hash2`]).
+const SPREAD_SEED: u32 = 0x9e37_79b9;
+
+/// Lattice hash of value noise: the spread key `x K_x ^ y K_y ^ seed K_s` of [`hash2`]
+/// finished by one xorshift-multiply-xorshift round (half of `lowbias32`; only the top 24
+/// bits are used, and those depend on every key bit).
+#[inline(always)]
+fn lattice_lanes<const N: usize>(mut x: [u32; N]) -> [u32; N] {
+    for v in &mut x {
+        *v ^= *v >> 16;
+        *v = v.wrapping_mul(LATTICE_MUL);
+        *v ^= *v >> 15;
+    }
+    x
+}
+
+/// Multiplier of the value-noise lattice hash (the first `lowbias32` constant).
+const LATTICE_MUL: u32 = 0x7feb_352d;
+
+/// 2-D value noise in [0, 1) at (x, y) (lattice spacing 1): bilinear blend (quintic fade)
+/// of the four corner values `unit_f32(lattice hash)`.
 #[inline]
 #[must_use]
 pub fn value2(x: f32, y: f32, seed: u32) -> f32 {
     let xf = x.floor();
     let yf = y.floor();
-    let (ix, iy) = (xf as i32, yf as i32);
+    let (ix, iy) = (lattice_index(xf), lattice_index(yf));
     let (tx, ty) = (fade(x - xf), fade(y - yf));
-    let a = unit_f32(hash2(ix, iy, seed));
-    let b = unit_f32(hash2(ix.wrapping_add(1), iy, seed));
-    let c = unit_f32(hash2(ix, iy.wrapping_add(1), seed));
-    let d = unit_f32(hash2(ix.wrapping_add(1), iy.wrapping_add(1), seed));
+    let s = seed.wrapping_mul(SPREAD_SEED);
+    let x0 = ix.wrapping_mul(SPREAD_X);
+    let x1 = ix.wrapping_add(1).wrapping_mul(SPREAD_X);
+    let y0 = iy.wrapping_mul(SPREAD_Y) ^ s;
+    let y1 = iy.wrapping_add(1).wrapping_mul(SPREAD_Y) ^ s;
+    let [a, b, c, d] = lattice_lanes([x0 ^ y0, x1 ^ y0, x0 ^ y1, x1 ^ y1]).map(unit_f32);
     let ab = a + (b - a) * tx;
     let cd = c + (d - c) * tx;
     ab + (cd - ab) * ty
@@ -118,23 +149,42 @@ pub fn band_weight(wavelength_m: f32, footprint_m: f32) -> f32 {
     ((wavelength_m / footprint_m.max(1e-9) - 2.0) * 0.5).clamp(0.0, 1.0)
 }
 
-/// Fractal value noise in roughly [-0.5, 0.5]: `sum_o gain^o (value2(2.1^o p / scale) - 0.5)`,
+/// Frequency ratio of successive fbm octaves.
+const LACUNARITY: f32 = 2.13;
+/// Amplitude ratio of successive fbm octaves.
+const GAIN: f32 = 0.55;
+
+/// `1.5 * 2^23`: adding it to an integral f32 of magnitude below `2^22` leaves the integer
+/// in the low mantissa bits (a branch-free, saturation-free float-to-int for the lattice).
+const INT_MAGIC: f32 = 12_582_912.0;
+
+/// Lattice index of an integral float (`floor` output) as wrapping u32; exact for
+/// `|xf| < 2^22` (lattice coordinates beyond that wrap deterministically).
+#[inline(always)]
+fn lattice_index(xf: f32) -> u32 {
+    (xf + INT_MAGIC).to_bits().wrapping_sub(INT_MAGIC.to_bits())
+}
+
+/// Fractal value noise in roughly [-0.5, 0.5]: `sum_o gain^o (value2(2.13^o p / scale) - 0.5)`,
 /// normalised by the sum of weights, octaves below the pixel footprint faded out.
 #[must_use]
 pub fn fbm2(x: f32, y: f32, scale_m: f32, octaves: u32, footprint_m: f32, seed: u32) -> f32 {
     let mut freq = 1.0 / scale_m;
+    // Octave wavelength in pixel footprints (the band_weight argument, without divisions).
+    let mut wavelength_px = scale_m / footprint_m.max(1e-9);
     let mut amp = 1.0;
     let mut sum = 0.0;
     let mut norm = 0.0;
     for o in 0..octaves {
-        let w = band_weight(1.0 / freq, footprint_m);
+        let w = ((wavelength_px - 2.0) * 0.5).clamp(0.0, 1.0);
         if w <= 0.0 {
             break;
         }
         sum += amp * w * (value2(x * freq, y * freq, seed.wrapping_add(o * 0x9e37)) - 0.5);
         norm += amp;
-        freq *= 2.13;
-        amp *= 0.55;
+        freq *= LACUNARITY;
+        wavelength_px *= 1.0 / LACUNARITY;
+        amp *= GAIN;
     }
     if norm > 0.0 { sum / norm } else { 0.0 }
 }
@@ -150,23 +200,27 @@ pub struct Cell {
     pub id: u32,
 }
 
-/// Worley cellular noise on a unit grid with one jittered feature point per cell.
+/// Worley cellular noise on a unit grid with one jittered feature point per cell: the
+/// point of cell `c` is `c + 0.1 + 0.8 (lo16(h), hi16(h)) / 2^16` with `h = hash2(c, seed)`
+/// (one hash per cell); distances are compared squared and rooted once.
 #[must_use]
 pub fn cellular2(x: f32, y: f32, seed: u32) -> Cell {
     let xf = x.floor();
     let yf = y.floor();
-    let (ix, iy) = (xf as i32, yf as i32);
+    let (fx, fy) = (x - xf, y - yf);
+    let (ix, iy) = (lattice_index(xf), lattice_index(yf));
+    let s = seed.wrapping_mul(SPREAD_SEED);
     let mut f1 = f32::MAX;
     let mut f2 = f32::MAX;
     let mut id = 0;
-    for dy in -1..=1 {
-        for dx in -1..=1 {
-            let cx = ix.wrapping_add(dx);
-            let cy = iy.wrapping_add(dy);
-            let h = hash2(cx, cy, seed);
-            let px = cx as f32 + 0.1 + 0.8 * unit_f32(h);
-            let py = cy as f32 + 0.1 + 0.8 * unit_f32(hash_u32(h));
-            let d = ((px - x) * (px - x) + (py - y) * (py - y)).sqrt();
+    for dy in 0..3_u32 {
+        let ky = iy.wrapping_add(dy).wrapping_sub(1).wrapping_mul(SPREAD_Y) ^ s;
+        for dx in 0..3_u32 {
+            let h = hash_u32(ix.wrapping_add(dx).wrapping_sub(1).wrapping_mul(SPREAD_X) ^ ky);
+            let px = dx as f32 - 0.9 + 0.8 * jitter16(h & 0xffff);
+            let py = dy as f32 - 0.9 + 0.8 * jitter16(h >> 16);
+            let (ex, ey) = (px - fx, py - fy);
+            let d = ex * ex + ey * ey;
             if d < f1 {
                 f2 = f1;
                 f1 = d;
@@ -176,7 +230,17 @@ pub fn cellular2(x: f32, y: f32, seed: u32) -> Cell {
             }
         }
     }
-    Cell { f1, f2, id }
+    Cell {
+        f1: f1.sqrt(),
+        f2: f2.sqrt(),
+        id,
+    }
+}
+
+/// A 16-bit value as a float in [0, 1).
+#[inline(always)]
+fn jitter16(h: u32) -> f32 {
+    (h as i32) as f32 * (1.0 / 65_536.0)
 }
 
 /// Antialiased step: 0 below `edge - w/2`, 1 above `edge + w/2`, linear in between, where
@@ -199,6 +263,37 @@ mod tests {
             let v = value2(x, x * 0.3, 7);
             assert!((0.0..1.0).contains(&v));
             assert_eq!(v.to_bits(), value2(x, x * 0.3, 7).to_bits());
+        }
+    }
+
+    #[test]
+    fn lane_hashes_match_the_scalar_hash() {
+        for i in -50..50 {
+            let (x, y) = (i as f32 * 0.731 + 0.2, i as f32 * -1.37 + 0.4);
+            let (ix, iy) = (x.floor() as i32, y.floor() as i32);
+            let (tx, ty) = (fade(x - x.floor()), fade(y - y.floor()));
+            let corner = |dx: i32, dy: i32| {
+                let k = ((ix + dx) as u32).wrapping_mul(SPREAD_X)
+                    ^ ((iy + dy) as u32).wrapping_mul(SPREAD_Y)
+                    ^ 99u32.wrapping_mul(SPREAD_SEED);
+                unit_f32(lattice_lanes([k])[0])
+            };
+            let ab = corner(0, 0) + (corner(1, 0) - corner(0, 0)) * tx;
+            let cd = corner(0, 1) + (corner(1, 1) - corner(0, 1)) * tx;
+            assert_eq!(value2(x, y, 99).to_bits(), (ab + (cd - ab) * ty).to_bits());
+            let c = cellular2(x, y, 5);
+            assert!(c.f1 <= c.f2 && c.f1 >= 0.0 && c.f2 < 2.0, "{c:?}");
+            let near = (-1..=1)
+                .flat_map(|dy| (-1..=1).map(move |dx| (dx, dy)))
+                .map(|(dx, dy)| {
+                    let h = hash2(ix + dx, iy + dy, 5);
+                    let px = (ix + dx) as f32 + 0.1 + 0.8 * jitter16(h & 0xffff);
+                    let py = (iy + dy) as f32 + 0.1 + 0.8 * jitter16(h >> 16);
+                    ((px - x).hypot(py - y), h)
+                })
+                .fold((f32::MAX, 0), |a, b| if b.0 < a.0 { b } else { a });
+            assert_eq!(c.id, near.1);
+            assert!((c.f1 - near.0).abs() < 1e-4, "{} {}", c.f1, near.0);
         }
     }
 

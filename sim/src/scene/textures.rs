@@ -158,8 +158,8 @@ impl Material {
     #[must_use]
     pub fn albedo(&self, uv_m: [f64; 2], face: u8, footprint_m: f32) -> [f32; 3] {
         // Keep f32 precision: textures repeat every 4096 m, far beyond the scene.
-        let u = (uv_m[0].rem_euclid(4096.0)) as f32;
-        let v = (uv_m[1].rem_euclid(4096.0)) as f32;
+        let u = wrap(uv_m[0], TEXTURE_PERIOD_M) as f32;
+        let v = wrap(uv_m[1], TEXTURE_PERIOD_M) as f32;
         let fp = footprint_m.max(1e-5);
         let seed = hash_u32(self.seed ^ (u32::from(face) << 24));
         let b = self.base_rgb;
@@ -192,7 +192,7 @@ impl Material {
             } => bolted(b, u, v, fp, seed, pitch_m, bolt_radius_m),
             Texture::Label { glyph_m } => label(b, a, u, v, fp, seed, glyph_m),
             Texture::Louvres { pitch_m } => {
-                let f = (v / pitch_m).rem_euclid(1.0);
+                let f = fract01(v / pitch_m);
                 let w = band_weight(pitch_m, fp);
                 let slat = 0.7 + 0.45 * f / 0.75;
                 let gap = aa_step(0.75, f, fp / pitch_m);
@@ -203,8 +203,8 @@ impl Material {
             }
             Texture::CableTray { slot_pitch_m } => {
                 let p = slot_pitch_m;
-                let fu = (u / p).rem_euclid(1.0);
-                let fv = (v / (0.5 * p)).rem_euclid(1.0);
+                let fu = fract01(u / p);
+                let fv = fract01(v / (0.5 * p));
                 // Rounded slot: |x| < 0.3, |y| < 0.2 in cell units.
                 let dx = ((fu - 0.5).abs() - 0.3).max(0.0);
                 let dy = ((fv - 0.5).abs() - 0.15).max(0.0);
@@ -222,7 +222,7 @@ impl Material {
             }
             Texture::Strands { pitch_m } => {
                 let (s, c) = 0.26_f32.sin_cos();
-                let f = ((u * c + v * s) / pitch_m).rem_euclid(1.0);
+                let f = fract01((u * c + v * s) / pitch_m);
                 let w = band_weight(pitch_m, fp);
                 let round = 0.55 + 0.5 * (std::f32::consts::PI * f).sin();
                 let strand = w * round + (1.0 - w) * 0.87;
@@ -230,15 +230,15 @@ impl Material {
                 scale(b, strand * grime)
             }
             Texture::Hazard { pitch_m } => {
-                let f = ((u + v) / pitch_m).rem_euclid(1.0);
+                let f = fract01((u + v) / pitch_m);
                 let t = aa_step(0.5, f, fp / pitch_m) * (1.0 - aa_step(0.98, f, fp / pitch_m));
                 let w = band_weight(pitch_m, fp);
                 let wear = 1.0 + 0.3 * fbm2(u, v, 0.05, 4, fp, seed);
                 scale(mix(b, a, w * t + (1.0 - w) * 0.5), wear)
             }
             Texture::Rubber { pitch_m } => {
-                let fa = ((u + v) / pitch_m).rem_euclid(1.0);
-                let fb = ((u - v) / pitch_m).rem_euclid(1.0);
+                let fa = fract01((u + v) / pitch_m);
+                let fb = fract01((u - v) / pitch_m);
                 let d = fa.min(1.0 - fa).min(fb).min(1.0 - fb) * pitch_m;
                 let w = band_weight(pitch_m, fp);
                 let groove =
@@ -247,6 +247,21 @@ impl Material {
             }
         }
     }
+}
+
+/// Period of all textures (m): coordinates are wrapped to keep f32 precision.
+const TEXTURE_PERIOD_M: f64 = 4096.0;
+
+/// `x` modulo `period` in `[0, period]` by floor (no `fmod` call).
+#[inline]
+fn wrap(x: f64, period: f64) -> f64 {
+    x - (x / period).floor() * period
+}
+
+/// `x - floor(x)`: the position within a unit period (no `fmodf` call).
+#[inline]
+fn fract01(x: f32) -> f32 {
+    x - x.floor()
 }
 
 #[inline]
