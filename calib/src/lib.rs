@@ -4,3 +4,4 @@ pub mod board;
 pub mod features;
 pub mod handeye;
 pub mod relpose;
+pub mod selfcal;

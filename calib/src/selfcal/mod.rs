@@ -1,0 +1,305 @@
+//! Hand-eye **self**-calibration from natural scene features (issue 8; the paper's pipeline,
+//! DESIGN.md section 6): no board, only the wrist camera's views and the hand poses.
+//!
+//! # Conventions
+//!
+//! `X = tool0_from_camera` (maps camera coordinates to flange coordinates). For views `i`, `j`
+//! (DESIGN.md s6):
+//!
+//! ```text
+//! B_j  = base_from_tool0 at view j                    (kinematics, from /tf)
+//! B_ij = tool_i_from_tool_j = B_i^-1 B_j              (hand motion)
+//! A_ij = cam_i_from_cam_j                             (camera motion, from the images)
+//! B_ij X = X A_ij                                     (rigid mount)
+//! ```
+//!
+//! The paper writes `A X_p = X_p B` with `X_p = camera_from_tool0 = X^-1`.
+//!
+//! # Pipeline ([`pipeline::self_calibrate`])
+//!
+//! 1. ORB with the ORB-SLAM quadtree on every view ([`crate::features`]); a view with fewer
+//!    than [`SelfCalParams::min_features`] keypoints (dark, over-exposed or textureless) is
+//!    refused with its count and mean intensity.
+//! 2. Pairs ([`pairs`]): every `i < j` whose hand rotation is at least
+//!    [`SelfCalParams::min_pair_rotation_deg`]; brute-force Hamming + GMS; a pair needs
+//!    [`SelfCalParams::min_matches`] GMS inliers (overlap).
+//! 3. Relative camera motion per pair ([`motion`]): RGB-D: keypoints back-projected with their
+//!    registered depth through the undistorted camera model, 3D-3D RANSAC + Umeyama + depth-
+//!    noise-weighted refinement; mono: undistorted normalised points, 5-point essential
+//!    RANSAC with cheirality, `|t_A| = 1`.
+//! 4. Linear initialisation over all pairs (the paper's Kronecker form, [`crate::handeye`]),
+//!    then Levenberg-Marquardt on the pose residuals (`ours`, Huber); pairs whose rotation
+//!    residual exceeds `max_pair_residual_factor` x the median (at least
+//!    `min_pair_residual_limit_deg`) are rejected and the LM is re-run on the others.
+//! 5. RGB-D, on request ([`SelfCalParams::refine_eq15`]): Levenberg-Marquardt on the paper's
+//!    eq. 15 ([`refine`]) over the RANSAC-inlier points, noise-model and Huber weighted, with
+//!    a second pair rejection by eq. 15 RMS. Off by default: with noisy hand poses it is less
+//!    accurate than step 4 (figures in [`refine`]).
+//!
+//! # Monocular scale
+//!
+//! Each essential matrix gives `t_A` only up to its own scale `s_ij` (no global SfM frame is
+//! built). The paper's `[t_A]x` form cancels it: with `u = R_X t_A / |t_A|`,
+//! `[u]x ((R_B - I) t_X + t_B) = 0` holds whatever `s_ij` is. So:
+//!
+//! 1. `R_X` from the rotations alone (Kronecker null space, scale-free);
+//! 2. with `R_X` fixed, `t_X` by linear least squares on the projected equations
+//!    `(I - u u^T)(R_B - I) t_X = -(I - u u^T) t_B` ([`motion::mono_translation`]), and each
+//!    pair's scale `s_ij = u^T((R_B - I) t_X + t_B)` (metres; a pair with `s_ij <= 0`
+//!    contradicts its own cheirality and is rejected);
+//! 3. with the scales fixed, the metric motions `(R_A, s_ij t_A)` go to the `ours` LM
+//!    (`scale_free = false`: the scales are already metric), which refines `R_X` and `t_X`;
+//! 4. back to 2 with the new `R_X`, [`MONO_SCALE_ALTERNATIONS`] times; before the last round
+//!    pairs whose rotation residual exceeds `max_pair_residual_factor` x the median are
+//!    rejected.
+//!
+//! Steps 2 and 3 minimise the same cost (the pose residuals of `B X = X A` with free per-pair
+//! scales) over complementary blocks, so this is block-coordinate descent to the joint
+//! least-squares optimum over X and the per-pair scales. [`crate::handeye::HandEyeSolution::scale`] is
+//! then 1;
+//! the per-pair scales are in [`pipeline::PairReport::scale`]. The eq. 15 point refinement
+//! runs in RGB-D mode only (mono points would carry the per-pair scales).
+//!
+//! # Refusals (never a wrong X)
+//!
+//! Too few views, images of the wrong size, dark/textureless views, too few usable pairs,
+//! degenerate hand motion (single rotation axis, pure translation: [`crate::handeye`]'s
+//! refusals), missing TF or stamps outside its range, depth without a colour image at the
+//! same stamp ([`messages`]). Ground truth (`/sim/...`) is never read.
+
+pub mod messages;
+pub mod motion;
+pub mod pairs;
+pub mod pipeline;
+pub mod refine;
+pub mod views;
+pub mod yaml;
+
+pub use messages::views_from_messages;
+pub use pipeline::{SelfCalParams, SelfCalResult, self_calibrate};
+pub use views::CalibView;
+pub use yaml::{calibration_yaml, result_json};
+
+use crate::features::FeatureError;
+use crate::handeye::HandEyeError;
+
+/// Fewest views the pipeline accepts (two independent motions need three views).
+pub const MIN_VIEWS: usize = 3;
+/// Fewest usable pairs (relative motions) the pipeline accepts.
+pub const MIN_PAIRS: usize = 2;
+/// Alternations between the per-pair scales and X in mono mode (module docs).
+pub const MONO_SCALE_ALTERNATIONS: usize = 4;
+
+/// Depth present (3D-3D motions, metric) or colour only (essential matrices, scale from the
+/// hand motions).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Mode {
+    /// Registered depth in every view.
+    Rgbd,
+    /// Colour (or grey) only.
+    Mono,
+}
+
+impl Mode {
+    /// The name of DESIGN.md s4 (`rgbd`, `mono`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Rgbd => "rgbd",
+            Mode::Mono => "mono",
+        }
+    }
+}
+
+/// Why a self-calibration was refused. Every variant carries the numbers that explain it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SelfCalError {
+    /// Fewer views than [`MIN_VIEWS`].
+    #[error(
+        "too few views: got {got}, need at least {need} (capture more views with varied wrist rotations)"
+    )]
+    TooFewViews {
+        /// Views given.
+        got: usize,
+        /// Views needed.
+        need: usize,
+    },
+    /// An image does not have the camera model's size.
+    #[error(
+        "view {index}: image is {width}x{height}, the camera model is {expected_width}x{expected_height}"
+    )]
+    ImageSize {
+        /// View index.
+        index: usize,
+        /// Image width.
+        width: u32,
+        /// Image height.
+        height: u32,
+        /// Camera width.
+        expected_width: u32,
+        /// Camera height.
+        expected_height: u32,
+    },
+    /// A depth image has the wrong number of pixels.
+    #[error("view {index}: depth has {got} pixels, the image has {expected}")]
+    DepthSize {
+        /// View index.
+        index: usize,
+        /// Depth pixels.
+        got: usize,
+        /// Image pixels.
+        expected: usize,
+    },
+    /// Some views have depth and others do not.
+    #[error(
+        "{with_depth} views have depth and {without_depth} do not: depth must be in all views or none"
+    )]
+    MixedDepth {
+        /// Views with depth.
+        with_depth: usize,
+        /// Views without.
+        without_depth: usize,
+    },
+    /// A hand pose is not finite.
+    #[error("view {index}: hand pose base_from_tool0 is not finite")]
+    NonFinitePose {
+        /// View index.
+        index: usize,
+    },
+    /// Too few ORB keypoints in a view: too dark, washed out or textureless.
+    #[error(
+        "view {index} (stamp {stamp_ns} ns): only {features} ORB features, need {need}; mean intensity {mean_intensity:.1}/255, contrast (std) {contrast:.1}: the image is too dark, washed out or textureless"
+    )]
+    TooFewFeatures {
+        /// View index.
+        index: usize,
+        /// Its stamp.
+        stamp_ns: u64,
+        /// Keypoints found.
+        features: usize,
+        /// Keypoints needed.
+        need: usize,
+        /// Mean grey level.
+        mean_intensity: f64,
+        /// Standard deviation of the grey levels.
+        contrast: f64,
+    },
+    /// Too few view pairs gave a relative motion.
+    #[error(
+        "only {usable} of {candidates} view pairs gave a camera motion, need {need} ({too_little_rotation} with too little hand rotation, {too_few_matches} with too few matches, {motion_failed} where the motion estimate failed, {rejected_later} rejected by residual): views overlap too little or the images are too poor"
+    )]
+    TooFewPairs {
+        /// Pairs with a motion.
+        usable: usize,
+        /// All pairs considered.
+        candidates: usize,
+        /// Pairs needed.
+        need: usize,
+        /// Pairs dropped for a small hand rotation.
+        too_little_rotation: usize,
+        /// Pairs dropped for too few matches.
+        too_few_matches: usize,
+        /// Pairs whose motion estimation failed.
+        motion_failed: usize,
+        /// Pairs rejected by residual.
+        rejected_later: usize,
+    },
+    /// The hand-eye solver refused the motions (degenerate motion etc.).
+    #[error("hand-eye solve: {0}")]
+    HandEye(#[from] HandEyeError),
+    /// The feature front end failed (bad parameters, image too small).
+    #[error("features: {0}")]
+    Features(String),
+    /// No colour image in the messages.
+    #[error("no colour image on {topic} ({messages} messages read)")]
+    NoImages {
+        /// Topic searched.
+        topic: String,
+        /// Messages given.
+        messages: usize,
+    },
+    /// No camera_info in the messages.
+    #[error("no camera intrinsics on {topic}")]
+    NoCameraInfo {
+        /// Topic searched.
+        topic: String,
+    },
+    /// The camera_info cannot be used.
+    #[error("camera_info unusable: {reason}")]
+    BadCameraInfo {
+        /// What is wrong.
+        reason: String,
+    },
+    /// An image encoding this pipeline does not read.
+    #[error(
+        "{topic}: unsupported encoding {encoding:?} (colour: rgb8, bgr8, mono8; depth: 32FC1, 16UC1)"
+    )]
+    UnsupportedEncoding {
+        /// Topic.
+        topic: String,
+        /// Encoding.
+        encoding: String,
+    },
+    /// An image message whose buffer does not hold its pixels.
+    #[error(
+        "{topic} at {stamp_ns} ns: {width}x{height} image with step {step} needs {needed} bytes, has {len}"
+    )]
+    BadImageBuffer {
+        /// Topic.
+        topic: String,
+        /// Stamp.
+        stamp_ns: u64,
+        /// Width.
+        width: u32,
+        /// Height.
+        height: u32,
+        /// Row step, bytes.
+        step: u32,
+        /// Bytes needed.
+        needed: usize,
+        /// Bytes present.
+        len: usize,
+    },
+    /// A stamp that cannot be converted to the robot clock.
+    #[error("{topic}: invalid stamp ({reason})")]
+    BadStamp {
+        /// Topic.
+        topic: String,
+        /// Why.
+        reason: String,
+    },
+    /// No hand pose for an image: TF missing or the stamp outside the buffered range.
+    #[error("view {index} (image stamp {stamp_ns} ns): no hand pose {parent} -> {child}: {reason}")]
+    MissingTf {
+        /// View index.
+        index: usize,
+        /// Image stamp.
+        stamp_ns: u64,
+        /// Parent frame.
+        parent: String,
+        /// Child frame.
+        child: String,
+        /// The TF buffer's explanation (unknown frame, extrapolation with the range).
+        reason: String,
+    },
+    /// A depth image without a colour image at the same stamp (or the reverse in RGB-D).
+    #[error(
+        "depth/colour stamp mismatch: {what} at {stamp_ns} ns has no partner within {tolerance_ns} ns (nearest {nearest_ns:?} ns)"
+    )]
+    StampMismatch {
+        /// `depth image` or `colour image`.
+        what: &'static str,
+        /// Its stamp.
+        stamp_ns: u64,
+        /// Nearest stamp of the other stream, if any.
+        nearest_ns: Option<u64>,
+        /// Tolerance used.
+        tolerance_ns: u64,
+    },
+}
+
+impl From<FeatureError> for SelfCalError {
+    fn from(e: FeatureError) -> Self {
+        SelfCalError::Features(e.to_string())
+    }
+}

@@ -1,0 +1,271 @@
+//! Relative camera motion `A_ij = cam_i_from_cam_j` of one view pair from its GMS matches,
+//! and the monocular translation with per-pair scales (module docs of [`super`]).
+//!
+//! - RGB-D: each match `(u_i, u_j)` with valid depth in both views (and no depth step around
+//!   it, [`CalibView::depth_at`]) becomes `p_in_cam_i = backproject(u_i, z_i)`,
+//!   `p_in_cam_j = backproject(u_j, z_j)` through the plumb_bob model (undistorted first);
+//!   [`estimate_rigid_ransac`] (3-point RANSAC, Umeyama/Horn, depth-noise-weighted LM) gives
+//!   `cam_i_from_cam_j` in metres and its inlier point pairs (kept for eq. 15).
+//! - Mono: normalised undistorted points, [`estimate_essential_ransac`] (5-point, Sampson,
+//!   cheirality, LM on `SO(3) x S^2`): `cam_i_from_cam_j` with `|t| = 1`.
+
+use nalgebra::{Isometry3, Matrix3, Point2, Point3, Vector3};
+
+use super::pairs::{PairMatches, PairRejection};
+use super::pipeline::SelfCalParams;
+use super::views::CalibView;
+use crate::relpose::{CameraModel, estimate_essential_ransac, estimate_rigid_ransac};
+
+/// Largest relative depth step between a keypoint's pixel and its 4-neighbours (2%).
+pub const MAX_DEPTH_STEP: f32 = 0.02;
+
+/// The camera motion of one pair.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairMotion {
+    /// `A_ij = cam_i_from_cam_j` (metres in RGB-D, `|t| = 1` in mono).
+    pub cam_i_from_cam_j: Isometry3<f64>,
+    /// RANSAC inliers.
+    pub inliers: usize,
+    /// RMS residual of the inliers: metres (RGB-D) or Sampson distance (mono, normalised
+    /// image units).
+    pub rms: f64,
+    /// RGB-D: inlier points `(p_in_cam_i, p_in_cam_j)`; mono: empty.
+    pub points: Vec<(Point3<f64>, Point3<f64>)>,
+    /// RGB-D: 1-sigma of `p_in_cam_i - A_ij p_in_cam_j` per inlier, metres (isotropic
+    /// approximation: keypoint error `sigma_px scale_factor^level` back-projected at its depth,
+    /// plus the depth noise, for both points); mono: empty.
+    pub point_sigma_m: Vec<f64>,
+}
+
+/// Deterministic per-pair seed.
+pub fn pair_seed(seed: u64, i: usize, j: usize) -> u64 {
+    let mut z = seed ^ ((i as u64) << 32 | j as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z ^ (z >> 31)
+}
+
+/// RGB-D motion of a pair (module docs).
+///
+/// # Errors
+/// [`PairRejection::TooFewDepthPoints`] when fewer than `min_points` matches have depth in
+/// both views; [`PairRejection::Motion`] when RANSAC refuses.
+pub fn rgbd_motion(
+    view_i: &CalibView,
+    view_j: &CalibView,
+    camera: &CameraModel,
+    matches: &PairMatches,
+    params: &SelfCalParams,
+    seed: u64,
+) -> Result<PairMotion, PairRejection> {
+    let (coords, levels) = (&matches.coords, &matches.levels);
+    let scale_factor = f64::from(params.orb.scale_factor);
+    let min_points = params.min_depth_points;
+    let params = &params.rigid;
+    let noise = params.noise.unwrap_or_default();
+    let f = 0.5 * (camera.fx + camera.fy);
+    let var = |z: f64, level: u8| {
+        let lateral = z * noise.sigma_pixel_px * scale_factor.powi(i32::from(level)) / f;
+        lateral * lateral + noise.sigma_depth_m(z).powi(2)
+    };
+    let mut p_i = Vec::with_capacity(coords.len());
+    let mut p_j = Vec::with_capacity(coords.len());
+    let mut sig = Vec::with_capacity(coords.len());
+    for (c, l) in coords
+        .iter()
+        .zip(levels.iter().chain(std::iter::repeat(&[0u8, 0u8])))
+    {
+        let (Some(zi), Some(zj)) = (
+            view_i.depth_at(c[0], c[1], MAX_DEPTH_STEP),
+            view_j.depth_at(c[2], c[3], MAX_DEPTH_STEP),
+        ) else {
+            continue;
+        };
+        let bi = camera.backproject(&Point2::new(f64::from(c[0]), f64::from(c[1])), zi);
+        let bj = camera.backproject(&Point2::new(f64::from(c[2]), f64::from(c[3])), zj);
+        if let (Ok(a), Ok(b)) = (bi, bj) {
+            p_i.push(a);
+            p_j.push(b);
+            sig.push((var(zi, l[0]) + var(zj, l[1])).sqrt());
+        }
+    }
+    if p_i.len() < min_points {
+        return Err(PairRejection::TooFewDepthPoints {
+            points: p_i.len(),
+            need: min_points,
+        });
+    }
+    let mut rp = *params;
+    if let Some(n) = rp.noise.as_mut() {
+        n.focal_px = 0.5 * (camera.fx + camera.fy);
+    }
+    let est = estimate_rigid_ransac(&p_i, &p_j, &rp, seed).map_err(|e| PairRejection::Motion {
+        reason: e.to_string(),
+    })?;
+    let (points, point_sigma_m) = p_i
+        .into_iter()
+        .zip(p_j)
+        .zip(sig)
+        .zip(&est.inliers)
+        .filter(|(_, k)| **k)
+        .map(|(p, _)| p)
+        .unzip();
+    Ok(PairMotion {
+        cam_i_from_cam_j: est.a_from_b,
+        inliers: est.inlier_count,
+        rms: est.rms_m,
+        points,
+        point_sigma_m,
+    })
+}
+
+/// Monocular motion of a pair (module docs); the essential inlier threshold
+/// ([`SelfCalParams::essential_threshold_px`]) is converted with the mean focal length.
+///
+/// # Errors
+/// [`PairRejection::Motion`] (undistortion failures drop single points; estimator refusals:
+/// too few points, pure rotation, no consensus).
+pub fn mono_motion(
+    camera: &CameraModel,
+    matches: &PairMatches,
+    params: &SelfCalParams,
+    seed: u64,
+) -> Result<PairMotion, PairRejection> {
+    let coords = &matches.coords;
+    let threshold_px = params.essential_threshold_px;
+    let params = &params.essential;
+    let mut x_i = Vec::with_capacity(coords.len());
+    let mut x_j = Vec::with_capacity(coords.len());
+    for c in coords {
+        let a = camera.undistort_pixel(&Point2::new(f64::from(c[0]), f64::from(c[1])));
+        let b = camera.undistort_pixel(&Point2::new(f64::from(c[2]), f64::from(c[3])));
+        if let (Ok(a), Ok(b)) = (a, b) {
+            x_i.push(a);
+            x_j.push(b);
+        }
+    }
+    let f = 0.5 * (camera.fx + camera.fy);
+    let mut ep = *params;
+    ep.inlier_threshold = threshold_px / f;
+    ep.pure_rotation_threshold_rad = 2.0 * threshold_px / f;
+    let est =
+        estimate_essential_ransac(&x_i, &x_j, &ep, seed).map_err(|e| PairRejection::Motion {
+            reason: e.to_string(),
+        })?;
+    Ok(PairMotion {
+        cam_i_from_cam_j: est.a_from_b,
+        inliers: est.inlier_count,
+        rms: est.rms_sampson,
+        points: Vec::new(),
+        point_sigma_m: Vec::new(),
+    })
+}
+
+/// Monocular translation of X with one unknown scale per pair (module docs of [`super`]):
+/// given `R_X`, minimises `sum_k w_k |(I - u_k u_k^T)((R_B - I) t_X + t_B)|^2` with
+/// `u_k = R_X t_A / |t_A|`, then returns `t_X` and the per-pair scales
+/// `s_k = u_k^T((R_B - I) t_X + t_B) / |t_A|` (metres per eye unit).
+///
+/// `motions[k] = (A_k, B_k, w_k)`. `None` when the 3x3 normal matrix is singular (all hand
+/// rotations about one axis leave the translation along it unobservable).
+pub fn mono_translation(
+    motions: &[(Isometry3<f64>, Isometry3<f64>, f64)],
+    r_x: &Matrix3<f64>,
+) -> Option<(Vector3<f64>, Vec<f64>)> {
+    let mut n = Matrix3::zeros();
+    let mut rhs = Vector3::zeros();
+    let mut proj = Vec::with_capacity(motions.len());
+    for (a, b, w) in motions {
+        let ta = a.translation.vector;
+        let na = ta.norm();
+        if na <= 0.0 {
+            proj.push(None);
+            continue;
+        }
+        let u = r_x * ta / na;
+        let p = Matrix3::identity() - u * u.transpose();
+        let rb = b.rotation.to_rotation_matrix().into_inner();
+        let m = p * (rb - Matrix3::identity());
+        let c = p * b.translation.vector;
+        n += *w * m.transpose() * m;
+        rhs -= *w * m.transpose() * c;
+        proj.push(Some((u, na)));
+    }
+    let t_x = n.try_inverse()? * rhs;
+    let scales = motions
+        .iter()
+        .zip(&proj)
+        .map(|((_, b, _), p)| match p {
+            Some((u, na)) => {
+                let rb = b.rotation.to_rotation_matrix().into_inner();
+                u.dot(&((rb - Matrix3::identity()) * t_x + b.translation.vector)) / na
+            }
+            None => 0.0,
+        })
+        .collect();
+    Some((t_x, scales))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Translation3, Unit, UnitQuaternion};
+
+    fn iso(axis: [f64; 3], deg: f64, t: [f64; 3]) -> Isometry3<f64> {
+        Isometry3::from_parts(
+            Translation3::new(t[0], t[1], t[2]),
+            UnitQuaternion::from_axis_angle(
+                &Unit::new_normalize(Vector3::new(axis[0], axis[1], axis[2])),
+                deg.to_radians(),
+            ),
+        )
+    }
+
+    #[test]
+    fn mono_translation_is_exact_with_arbitrary_pair_scales() {
+        let x = iso([1.0, 2.0, 3.0], 30.0, [0.05, 0.02, -0.08]);
+        let hands = [
+            iso([1.0, 0.0, 0.2], 25.0, [0.1, -0.05, 0.02]),
+            iso([0.0, 1.0, -0.3], 35.0, [-0.04, 0.12, 0.03]),
+            iso([0.2, 0.1, 1.0], 40.0, [0.07, 0.01, -0.09]),
+            iso([1.0, 1.0, 0.0], 20.0, [0.0, 0.05, 0.11]),
+        ];
+        let scales = [0.3, 2.0, 7.5, 0.9];
+        let motions: Vec<_> = hands
+            .iter()
+            .zip(scales)
+            .map(|(b, s)| {
+                let a = x.inverse() * b * x; // B X = X A
+                let unit = Isometry3::from_parts(
+                    Translation3::from(a.translation.vector / a.translation.vector.norm() * s),
+                    a.rotation,
+                );
+                (unit, *b, 1.0)
+            })
+            .collect();
+        let r_x = x.rotation.to_rotation_matrix().into_inner();
+        let (t_x, got) = mono_translation(&motions, &r_x).expect("solvable");
+        assert!((t_x - x.translation.vector).norm() < 1e-12, "{t_x:?}");
+        for ((a, b, _), s) in motions.iter().zip(&got) {
+            let true_a = x.inverse() * b * x;
+            let metric = a.translation.vector * *s;
+            assert!((metric - true_a.translation.vector).norm() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn mono_translation_refuses_single_axis() {
+        let r_x = Matrix3::identity();
+        let b = iso([0.0, 0.0, 1.0], 30.0, [0.1, 0.0, 0.0]);
+        let a = iso([0.0, 0.0, 1.0], 30.0, [0.0, 1.0, 0.0]);
+        let motions = vec![(a, b, 1.0), (a, b, 1.0)];
+        // One rotation axis (z): t_X along it is unobservable, the normal matrix singular.
+        assert!(mono_translation(&motions, &r_x).is_none());
+    }
+
+    #[test]
+    fn pair_seeds_differ_and_are_stable() {
+        assert_eq!(pair_seed(0, 1, 2), pair_seed(0, 1, 2));
+        assert_ne!(pair_seed(0, 1, 2), pair_seed(0, 2, 1));
+        assert_ne!(pair_seed(0, 1, 2), pair_seed(1, 1, 2));
+    }
+}

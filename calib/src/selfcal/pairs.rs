@@ -1,0 +1,229 @@
+//! Which view pairs to use, and their feature matches.
+//!
+//! A pair `(i, j)`, `i < j`, is a candidate when its hand rotation `angle(R_B_ij)` is at least
+//! [`super::SelfCalParams::min_pair_rotation_deg`] (a pair that barely rotates carries no
+//! rotation information and makes `(R_B - I) t_X` ill-conditioned). Its overlap is measured
+//! by features: ORB (quadtree) in both views, brute-force Hamming nearest neighbours, GMS;
+//! the pair is used when at least [`super::SelfCalParams::min_matches`] GMS inliers remain.
+//! Rejected pairs keep their reason ([`PairRejection`]) for the report.
+
+use nalgebra::Isometry3;
+use rayon::prelude::*;
+
+use super::views::{CalibView, intensity_stats};
+use super::{SelfCalError, SelfCalParams};
+use crate::features::{Features, GrayView, Keypoint, OrbExtractor, gms_filter, match_brute_force};
+
+/// Why a view pair was not used.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PairRejection {
+    /// The hands rotate too little between the views.
+    #[error("hand rotation {hand_rotation_deg:.2} deg < {min_deg} deg")]
+    SmallRotation {
+        /// Rotation angle of `B_ij`, degrees.
+        hand_rotation_deg: f64,
+        /// Threshold, degrees.
+        min_deg: f64,
+    },
+    /// Too few GMS matches (little overlap, poor images).
+    #[error("{matches} GMS matches < {need}")]
+    TooFewMatches {
+        /// Matches kept by GMS.
+        matches: usize,
+        /// Needed.
+        need: usize,
+    },
+    /// Too few matches with valid depth in both views.
+    #[error("{points} matches with valid depth in both views < {need}")]
+    TooFewDepthPoints {
+        /// Matches with depth.
+        points: usize,
+        /// Needed.
+        need: usize,
+    },
+    /// The relative-pose estimator refused the pair.
+    #[error("relative motion: {reason}")]
+    Motion {
+        /// The estimator's message.
+        reason: String,
+    },
+    /// The hand-eye solver rejected it (hand/eye rotation angles disagree).
+    #[error("hand and camera rotation angles disagree (rejected by the hand-eye solver)")]
+    AngleMismatch,
+    /// Monocular: the per-pair scale came out non-positive (wrong translation direction).
+    #[error(
+        "monocular pair scale {scale:.4} <= 0 (translation direction contradicts the hand motion)"
+    )]
+    NonPositiveScale {
+        /// The estimated scale.
+        scale: f64,
+    },
+    /// Its residual after the solve is far above the others'.
+    #[error("residual {residual:.3} above the limit {limit:.3} ({unit})")]
+    Residual {
+        /// The pair's residual.
+        residual: f64,
+        /// The limit.
+        limit: f64,
+        /// Unit and kind of residual.
+        unit: &'static str,
+    },
+}
+
+/// GMS matches of one pair in full-size pixels.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairMatches {
+    /// First view.
+    pub i: usize,
+    /// Second view.
+    pub j: usize,
+    /// Hand rotation angle of `B_ij`, degrees.
+    pub hand_rotation_deg: f64,
+    /// Brute-force matches before GMS.
+    pub raw_matches: usize,
+    /// GMS inliers `[x_i, y_i, x_j, y_j]`.
+    pub coords: Vec<[f32; 4]>,
+    /// Pyramid levels `[level_i, level_j]` of the two keypoints of each inlier (their
+    /// localisation error grows with `scale_factor^level`).
+    pub levels: Vec<[u8; 2]>,
+}
+
+/// The full-resolution position of a keypoint. ORB reports `x_level * s^level` (as OpenCV),
+/// but the pyramid is resampled pixel-centre aligned (`u = (x + 0.5) s - 0.5`,
+/// [`crate::features::gray::resize_bilinear`]), so the pixel `x_level` of level `l` is centred
+/// at `(x_level + 0.5) s^l - 0.5` in the full image: a shift of `0.5 (s^l - 1)` pixels (1.3 px
+/// at level 7), which would bias the back-projected points of coarse-level keypoints.
+pub fn full_res_position(k: &Keypoint, scale_factor: f32) -> (f32, f32) {
+    let shift = 0.5 * (scale_factor.powi(i32::from(k.level)) - 1.0);
+    (k.x + shift, k.y + shift)
+}
+
+/// `B_ij = tool_i_from_tool_j = B_i^-1 B_j`.
+pub fn hand_motion(views: &[CalibView], i: usize, j: usize) -> Option<Isometry3<f64>> {
+    Some(views.get(i)?.base_from_tool0.inverse() * views.get(j)?.base_from_tool0)
+}
+
+/// ORB features of every view (in parallel, collected in view order).
+///
+/// # Errors
+/// [`SelfCalError::Features`] (parameters), [`SelfCalError::TooFewFeatures`] for the first
+/// view with fewer than `params.min_features` keypoints (dark, washed out, textureless).
+pub fn extract_features(
+    views: &[CalibView],
+    params: &SelfCalParams,
+) -> Result<Vec<Features>, SelfCalError> {
+    OrbExtractor::new(params.orb.clone())?;
+    let all: Vec<Result<Features, SelfCalError>> = views
+        .par_iter()
+        .map(|v| {
+            let mut ex = OrbExtractor::new(params.orb.clone())?;
+            let mut f = Features::default();
+            ex.detect_and_describe(&GrayView::from_image(&v.gray), &mut f)?;
+            Ok(f)
+        })
+        .collect();
+    let mut out = Vec::with_capacity(all.len());
+    for (index, (f, v)) in all.into_iter().zip(views).enumerate() {
+        let f = f?;
+        if f.keypoints.len() < params.min_features {
+            let (mean_intensity, contrast) = intensity_stats(&v.gray);
+            return Err(SelfCalError::TooFewFeatures {
+                index,
+                stamp_ns: v.stamp_ns,
+                features: f.keypoints.len(),
+                need: params.min_features,
+                mean_intensity,
+                contrast,
+            });
+        }
+        out.push(f);
+    }
+    Ok(out)
+}
+
+/// A candidate pair `(i, j, hand rotation in degrees)`.
+pub type Candidate = (usize, usize, f64);
+/// A pair refused before matching `(i, j, reason)`.
+pub type Refused = (usize, usize, PairRejection);
+
+/// Candidate pairs `(i, j)` with their hand rotation (degrees), and the pairs refused for a
+/// small rotation.
+pub fn candidate_pairs(
+    views: &[CalibView],
+    min_rotation_deg: f64,
+) -> (Vec<Candidate>, Vec<Refused>) {
+    let mut keep = Vec::new();
+    let mut drop = Vec::new();
+    for i in 0..views.len() {
+        for j in i + 1..views.len() {
+            let Some(b) = hand_motion(views, i, j) else {
+                continue;
+            };
+            let deg = b.rotation.angle().to_degrees();
+            if deg < min_rotation_deg {
+                drop.push((
+                    i,
+                    j,
+                    PairRejection::SmallRotation {
+                        hand_rotation_deg: deg,
+                        min_deg: min_rotation_deg,
+                    },
+                ));
+            } else {
+                keep.push((i, j, deg));
+            }
+        }
+    }
+    (keep, drop)
+}
+
+/// Brute-force + GMS matches of view `i` (query) to view `j` (train).
+pub fn match_pair(
+    features: &[Features],
+    size: (usize, usize),
+    (i, j, hand_rotation_deg): (usize, usize, f64),
+    params: &SelfCalParams,
+) -> PairMatches {
+    let (Some(fa), Some(fb)) = (features.get(i), features.get(j)) else {
+        return PairMatches {
+            i,
+            j,
+            hand_rotation_deg,
+            raw_matches: 0,
+            coords: Vec::new(),
+            levels: Vec::new(),
+        };
+    };
+    let scale_factor = params.orb.scale_factor;
+    let mut mp = params.matching;
+    mp.parallel = false; // pairs already run in parallel
+    let matches = match_brute_force(&fa.descriptors, &fb.descriptors, &mp);
+    let mask = gms_filter(
+        &fa.keypoints,
+        size,
+        &fb.keypoints,
+        size,
+        &matches,
+        &params.gms,
+    );
+    let (coords, levels) = matches
+        .iter()
+        .zip(&mask)
+        .filter(|(_, k)| **k)
+        .filter_map(|(m, _)| {
+            let a = fa.keypoints.get(m.query as usize)?;
+            let b = fb.keypoints.get(m.train as usize)?;
+            let (ax, ay) = full_res_position(a, scale_factor);
+            let (bx, by) = full_res_position(b, scale_factor);
+            Some(([ax, ay, bx, by], [a.level, b.level]))
+        })
+        .unzip();
+    PairMatches {
+        i,
+        j,
+        hand_rotation_deg,
+        raw_matches: matches.len(),
+        coords,
+        levels,
+    }
+}

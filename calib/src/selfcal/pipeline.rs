@@ -1,0 +1,642 @@
+//! The self-calibration pipeline end to end ([`self_calibrate`]; steps in the docs of
+//! [`super`]).
+//!
+//! Determinism: features per view and matches/motions per pair run on rayon with ordered
+//! collection, each pair's RANSAC has its own seed ([`pair_seed`]), all reductions are
+//! sequential: the result does not depend on the thread count.
+
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use rayon::prelude::*;
+
+use super::motion::{PairMotion, mono_motion, mono_translation, pair_seed, rgbd_motion};
+use super::pairs::{
+    PairMatches, PairRejection, candidate_pairs, extract_features, hand_motion, match_pair,
+};
+use super::refine::{Eq15Pair, Eq15Params, Eq15Report, refine_eq15};
+use super::views::{CalibView, validate_views};
+use super::{MIN_PAIRS, MONO_SCALE_ALTERNATIONS, Mode, SelfCalError};
+use crate::features::{GmsParams, MatchParams, OrbParams};
+use crate::handeye::refine::pair_residual;
+use crate::handeye::{
+    HandEyeError, HandEyeOptions, HandEyeSolution, RelativeMotion, degeneracy, kronecker,
+    solve_motions, uncertainty,
+};
+use crate::relpose::{CameraModel, EssentialParams, RigidRansacParams};
+
+/// Parameters of [`self_calibrate`]; every default is documented on its field.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SelfCalParams {
+    /// ORB (default: the paper's, 2000 features, 8 levels x1.2, FAST 20 -> 7).
+    pub orb: OrbParams,
+    /// Brute-force matching (default: nearest neighbours, no cross-check: GMS wants them all).
+    pub matching: MatchParams,
+    /// GMS (default: 20x20 grid, alpha 6, no rotation/scale patterns).
+    pub gms: GmsParams,
+    /// Refuse a view with fewer ORB keypoints than this (default 100).
+    pub min_features: usize,
+    /// A pair needs at least this many GMS matches (default 30).
+    pub min_matches: usize,
+    /// A pair needs at least this hand rotation, degrees (default 5).
+    pub min_pair_rotation_deg: f64,
+    /// 3D-3D RANSAC (default [`RigidRansacParams::default`]: 3 mm, depth-noise refinement;
+    /// the noise model's focal length is set from the camera).
+    pub rigid: RigidRansacParams,
+    /// RGB-D: a pair needs at least this many matches with depth in both views (default 12).
+    pub min_depth_points: usize,
+    /// Essential-matrix RANSAC (default [`EssentialParams::default`]; its thresholds are
+    /// replaced by `essential_threshold_px` converted with the focal length).
+    pub essential: EssentialParams,
+    /// Sampson inlier threshold, pixels (default 1.0).
+    pub essential_threshold_px: f64,
+    /// Hand-eye solver options (default `ours`, Huber; `scale_free` is set by the mode).
+    pub handeye: HandEyeOptions,
+    /// RGB-D: finish with the eq. 15 point refinement ([`super::refine`]; default false: with
+    /// noisy hand poses it is less accurate than the pose LM, see the module docs of
+    /// [`super::refine`]).
+    pub refine_eq15: bool,
+    /// Stopping rules of the eq. 15 refinement.
+    pub eq15: Eq15Params,
+    /// A pair is rejected when its residual exceeds this many times the median pair
+    /// residual (default 3).
+    pub max_pair_residual_factor: f64,
+    /// ... but never below this eq. 15 RMS, metres (default 1e-3).
+    pub min_pair_residual_limit_m: f64,
+    /// ... nor below this rotation residual (mono), degrees (default 1.0).
+    pub min_pair_residual_limit_deg: f64,
+    /// Seed of the per-pair RANSAC streams (default 0).
+    pub seed: u64,
+}
+
+impl Default for SelfCalParams {
+    fn default() -> Self {
+        Self {
+            orb: OrbParams::default(),
+            matching: MatchParams::default(),
+            gms: GmsParams::default(),
+            min_features: 100,
+            min_matches: 30,
+            min_pair_rotation_deg: 5.0,
+            rigid: RigidRansacParams::default(),
+            min_depth_points: 12,
+            essential: EssentialParams::default(),
+            essential_threshold_px: 1.0,
+            handeye: HandEyeOptions::default(),
+            refine_eq15: false,
+            eq15: Eq15Params::default(),
+            max_pair_residual_factor: 3.0,
+            min_pair_residual_limit_m: 1e-3,
+            min_pair_residual_limit_deg: 1.0,
+            seed: 0,
+        }
+    }
+}
+
+/// Reference image area of the paper's defaults: the wrist camera, 1280 x 1024 pixels.
+pub const REFERENCE_AREA_PX: f64 = 1280.0 * 1024.0;
+/// Upper bound of the area-scaled feature count of [`SelfCalParams::for_camera`].
+pub const MAX_SCALED_FEATURES: usize = 8000;
+/// From this many features on, [`SelfCalParams::for_camera`] turns on GMS's rotation and
+/// scale patterns (their 40 evaluations then cost little next to the brute-force matching).
+pub const GMS_PATTERNS_FROM_FEATURES: usize = 4000;
+
+impl SelfCalParams {
+    /// Defaults adapted to the image size: the paper's 2000 features are for the 1280x1024
+    /// wrist camera; larger images get `2000 * area / (1280 * 1024)` features (keypoint
+    /// density kept, at most [`MAX_SCALED_FEATURES`]), and from
+    /// [`GMS_PATTERNS_FROM_FEATURES`] on GMS also tries the rotated and scaled neighbourhood
+    /// patterns (large viewpoint changes of hand-held style datasets such as shecar:
+    /// 3264x1836 -> 8000 features; the median rotation residual there drops from 1.2 deg with
+    /// 2000 features to 0.54 deg). Images up to 1280x1024 get [`SelfCalParams::default`].
+    pub fn for_camera(camera: &CameraModel) -> Self {
+        let mut p = Self::default();
+        let area = f64::from(camera.width) * f64::from(camera.height);
+        let scaled = (p.orb.n_features as f64 * area / REFERENCE_AREA_PX).round() as usize;
+        p.orb.n_features = scaled.clamp(p.orb.n_features, MAX_SCALED_FEATURES);
+        if p.orb.n_features >= GMS_PATTERNS_FROM_FEATURES {
+            p.gms.with_rotation = true;
+            p.gms.with_scale = true;
+        }
+        p
+    }
+}
+
+/// What happened to one candidate pair.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairReport {
+    /// First view.
+    pub i: usize,
+    /// Second view.
+    pub j: usize,
+    /// Hand rotation of `B_ij`, degrees.
+    pub hand_rotation_deg: f64,
+    /// Brute-force matches.
+    pub raw_matches: usize,
+    /// GMS matches.
+    pub matches: usize,
+    /// RANSAC inliers of the motion (0 without one).
+    pub inliers: usize,
+    /// `A_ij = cam_i_from_cam_j` when estimated (mono: `|t| = 1`).
+    pub cam_i_from_cam_j: Option<Isometry3<f64>>,
+    /// Metres per eye unit of this pair (1 in RGB-D; the per-pair scale in mono).
+    pub scale: f64,
+    /// Rotation residual of `B X = X A` at the final X, degrees (NaN without a motion).
+    pub residual_rot_deg: f64,
+    /// Translation residual at the final X (eye translation times `scale` and the global
+    /// scale), millimetres (NaN without a motion).
+    pub residual_trans_mm: f64,
+    /// RGB-D: RMS eq. 15 point residual at the final X, millimetres (NaN otherwise).
+    pub eq15_rms_mm: f64,
+    /// Why the pair was not used (`None` = used).
+    pub rejected: Option<PairRejection>,
+}
+
+/// Result of [`self_calibrate`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct SelfCalResult {
+    /// `X = tool0_from_camera` with its figures (residual medians over the used pairs).
+    pub solution: HandEyeSolution,
+    /// RGB-D or mono.
+    pub mode: Mode,
+    /// ORB keypoints per view.
+    pub features_per_view: Vec<usize>,
+    /// Every pair `i < j` with what happened to it.
+    pub pairs: Vec<PairReport>,
+    /// GMS matches of the candidate pairs, for the viewer.
+    pub matches: Vec<PairMatches>,
+    /// X of the linear (Kronecker) initialisation.
+    pub linear_tool0_from_camera: Isometry3<f64>,
+    /// RGB-D: the final eq. 15 refinement.
+    pub eq15: Option<Eq15Report>,
+}
+
+impl SelfCalResult {
+    /// Number of pairs used.
+    pub fn used_pairs(&self) -> usize {
+        self.pairs.iter().filter(|p| p.rejected.is_none()).count()
+    }
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.retain(|x| x.is_finite());
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+fn centroid(points: &[(Point3<f64>, Point3<f64>)]) -> Vector3<f64> {
+    let n = points.len().max(1) as f64;
+    points.iter().map(|(p, _)| p.coords).sum::<Vector3<f64>>() / n
+}
+
+/// Runs the solve on the pairs `used` (indices into `reports`) and marks the pairs the
+/// hand-eye solver rejects.
+fn solve_used(
+    reports: &mut [PairReport],
+    used: &[usize],
+    motions: &[RelativeMotion],
+    opts: &HandEyeOptions,
+) -> Result<HandEyeSolution, SelfCalError> {
+    let sel: Vec<RelativeMotion> = used
+        .iter()
+        .filter_map(|&k| motions.get(k).copied())
+        .collect();
+    let sol = solve_motions(&sel, opts)?;
+    for &r in &sol.rejected_pairs {
+        if let Some(rep) = used.get(r).and_then(|&k| reports.get_mut(k)) {
+            rep.rejected = Some(PairRejection::AngleMismatch);
+        }
+    }
+    Ok(sol)
+}
+
+fn too_few_pairs(reports: &[PairReport]) -> SelfCalError {
+    let count = |f: &dyn Fn(&PairRejection) -> bool| {
+        reports
+            .iter()
+            .filter(|r| r.rejected.as_ref().is_some_and(f))
+            .count()
+    };
+    SelfCalError::TooFewPairs {
+        usable: reports.iter().filter(|r| r.rejected.is_none()).count(),
+        candidates: reports.len(),
+        need: MIN_PAIRS,
+        too_little_rotation: count(&|r| matches!(r, PairRejection::SmallRotation { .. })),
+        too_few_matches: count(&|r| matches!(r, PairRejection::TooFewMatches { .. })),
+        motion_failed: count(&|r| {
+            matches!(
+                r,
+                PairRejection::Motion { .. } | PairRejection::TooFewDepthPoints { .. }
+            )
+        }),
+        rejected_later: count(&|r| {
+            matches!(
+                r,
+                PairRejection::AngleMismatch
+                    | PairRejection::Residual { .. }
+                    | PairRejection::NonPositiveScale { .. }
+            )
+        }),
+    }
+}
+
+fn used_indices(reports: &[PairReport]) -> Vec<usize> {
+    (0..reports.len())
+        .filter(|&k| reports.get(k).is_some_and(|r| r.rejected.is_none()))
+        .collect()
+}
+
+/// Hand-eye self-calibration of `views` (module docs of [`super`]): `X = tool0_from_camera`.
+///
+/// # Errors
+/// [`SelfCalError::TooFewViews`], [`SelfCalError::ImageSize`], [`SelfCalError::DepthSize`],
+/// [`SelfCalError::MixedDepth`], [`SelfCalError::NonFinitePose`],
+/// [`SelfCalError::TooFewFeatures`] (dark/textureless view, with its numbers),
+/// [`SelfCalError::TooFewPairs`] (with the count of each rejection reason),
+/// [`SelfCalError::HandEye`] (degenerate motion: single rotation axis, pure translation,
+/// inconsistent motions, ...), [`SelfCalError::Features`].
+pub fn self_calibrate(
+    views: &[CalibView],
+    camera: &CameraModel,
+    params: &SelfCalParams,
+) -> Result<SelfCalResult, SelfCalError> {
+    let mode = validate_views(views, camera)?;
+    let features = extract_features(views, params)?;
+    let size = (camera.width as usize, camera.height as usize);
+    let (cands, small) = candidate_pairs(views, params.min_pair_rotation_deg);
+    let matches: Vec<PairMatches> = cands
+        .par_iter()
+        .map(|&c| match_pair(&features, size, c, params))
+        .collect();
+    let estimates: Vec<Result<PairMotion, PairRejection>> = matches
+        .par_iter()
+        .map(|m| {
+            if m.coords.len() < params.min_matches {
+                return Err(PairRejection::TooFewMatches {
+                    matches: m.coords.len(),
+                    need: params.min_matches,
+                });
+            }
+            let seed = pair_seed(params.seed, m.i, m.j);
+            match mode {
+                Mode::Rgbd => match (views.get(m.i), views.get(m.j)) {
+                    (Some(vi), Some(vj)) => rgbd_motion(vi, vj, camera, m, params, seed),
+                    _ => Err(PairRejection::TooFewMatches {
+                        matches: 0,
+                        need: params.min_matches,
+                    }),
+                },
+                Mode::Mono => mono_motion(camera, m, params, seed),
+            }
+        })
+        .collect();
+
+    // Reports: candidates first (index k = motion k), then the small-rotation pairs.
+    let nan = f64::NAN;
+    let mut reports: Vec<PairReport> = Vec::with_capacity(cands.len() + small.len());
+    let mut motions: Vec<RelativeMotion> = Vec::with_capacity(cands.len());
+    let mut points: Vec<Vec<(Point3<f64>, Point3<f64>)>> = Vec::with_capacity(cands.len());
+    let mut sigmas: Vec<Vec<f64>> = Vec::with_capacity(cands.len());
+    for (m, est) in matches.iter().zip(&estimates) {
+        let b = hand_motion(views, m.i, m.j).unwrap_or_else(Isometry3::identity);
+        let (a, inliers, pts, sig, rejected) = match est {
+            Ok(pm) => (
+                Some(pm.cam_i_from_cam_j),
+                pm.inliers,
+                pm.points.clone(),
+                pm.point_sigma_m.clone(),
+                None,
+            ),
+            Err(e) => (None, 0, Vec::new(), Vec::new(), Some(e.clone())),
+        };
+        let mut rm = RelativeMotion::new(a.unwrap_or_else(Isometry3::identity), b);
+        if mode == Mode::Rgbd {
+            rm.eye_lever_m = centroid(&pts);
+        }
+        motions.push(rm);
+        points.push(pts);
+        sigmas.push(sig);
+        reports.push(PairReport {
+            i: m.i,
+            j: m.j,
+            hand_rotation_deg: m.hand_rotation_deg,
+            raw_matches: m.raw_matches,
+            matches: m.coords.len(),
+            inliers,
+            cam_i_from_cam_j: a,
+            scale: 1.0,
+            residual_rot_deg: nan,
+            residual_trans_mm: nan,
+            eq15_rms_mm: nan,
+            rejected,
+        });
+    }
+    let n_motion = reports.len();
+    for (i, j, why) in small {
+        let deg = match &why {
+            PairRejection::SmallRotation {
+                hand_rotation_deg, ..
+            } => *hand_rotation_deg,
+            _ => nan,
+        };
+        reports.push(PairReport {
+            i,
+            j,
+            hand_rotation_deg: deg,
+            raw_matches: 0,
+            matches: 0,
+            inliers: 0,
+            cam_i_from_cam_j: None,
+            scale: 1.0,
+            residual_rot_deg: nan,
+            residual_trans_mm: nan,
+            eq15_rms_mm: nan,
+            rejected: Some(why),
+        });
+    }
+    if used_indices(&reports).len() < MIN_PAIRS {
+        return Err(too_few_pairs(&reports));
+    }
+
+    let mut opts = params.handeye.clone();
+    opts.scale_free = false; // mono: metric per-pair scales (module docs)
+    let (mut solution, linear, eq15) = match mode {
+        Mode::Rgbd => solve_rgbd(&mut reports, &motions, &points, &sigmas, &opts, params)?,
+        Mode::Mono => solve_mono(&mut reports, &mut motions, &opts, params)?,
+    };
+
+    solution.views = views.len();
+    // Final per-pair residuals (metric eye translations).
+    let x = solution.tool0_from_camera;
+    for (k, rep) in reports.iter_mut().enumerate().take(n_motion) {
+        if rep.cam_i_from_cam_j.is_none() {
+            continue;
+        }
+        let Some(m) = motions.get(k) else { continue };
+        // Mono motions already carry their metric per-pair scales (see `solve_mono`).
+        let eye_scale = if mode == Mode::Mono {
+            1.0
+        } else {
+            solution.scale
+        };
+        let (r, t) = pair_residual(m, &x, eye_scale);
+        rep.residual_rot_deg = r.norm().to_degrees();
+        rep.residual_trans_mm = t.norm() * 1e3;
+        if let Some(pts) = points.get(k).filter(|p| !p.is_empty()) {
+            let m_ij = x.inverse() * m.b * x;
+            let s: f64 = pts
+                .iter()
+                .map(|(pi, pj)| (pi - m_ij * pj).norm_squared())
+                .sum();
+            rep.eq15_rms_mm = (s / pts.len() as f64).sqrt() * 1e3;
+        }
+    }
+    reports.sort_by_key(|r| (r.i, r.j));
+    Ok(SelfCalResult {
+        solution,
+        mode,
+        features_per_view: features.iter().map(|f| f.keypoints.len()).collect(),
+        pairs: reports,
+        matches,
+        linear_tool0_from_camera: linear,
+        eq15,
+    })
+}
+
+type Solved = (HandEyeSolution, Isometry3<f64>, Option<Eq15Report>);
+
+fn solve_rgbd(
+    reports: &mut [PairReport],
+    motions: &[RelativeMotion],
+    points: &[Vec<(Point3<f64>, Point3<f64>)>],
+    sigmas: &[Vec<f64>],
+    opts: &HandEyeOptions,
+    params: &SelfCalParams,
+) -> Result<Solved, SelfCalError> {
+    let used = used_indices(reports);
+    let sel: Vec<RelativeMotion> = used
+        .iter()
+        .filter_map(|&k| motions.get(k).copied())
+        .collect();
+    let (linear, _) = kronecker::solve(&degeneracy_kept(&sel, opts)?, false)?;
+    let mut sol = solve_used(reports, &used, motions, opts)?;
+    // Pair rejection by pose residual, then the final pose LM on the kept pairs.
+    if reject_by_pose_residual(reports, motions, &sol.tool0_from_camera, params) > 0 {
+        if used_indices(reports).len() < MIN_PAIRS {
+            return Err(too_few_pairs(reports));
+        }
+        sol = solve_used(reports, &used_indices(reports), motions, opts)?;
+    }
+    if !params.refine_eq15 {
+        return Ok((sol, linear, None));
+    }
+    let mut report = None;
+    for round in 0..2 {
+        let used = used_indices(reports);
+        let pairs: Vec<Eq15Pair> = used
+            .iter()
+            .filter_map(|&k| {
+                Some(Eq15Pair {
+                    tool_i_from_tool_j: motions.get(k)?.b,
+                    points: points.get(k)?.clone(),
+                    sigma_m: sigmas.get(k)?.clone(),
+                })
+            })
+            .collect();
+        let rep = refine_eq15(&pairs, &sol.tool0_from_camera, &params.eq15);
+        let limit = (params.max_pair_residual_factor * median(rep.pair_rms_m.clone()))
+            .max(params.min_pair_residual_limit_m);
+        let mut rejected_any = false;
+        if round == 0 {
+            for (&k, &rms) in used.iter().zip(&rep.pair_rms_m) {
+                if rms > limit
+                    && let Some(r) = reports.get_mut(k)
+                {
+                    r.rejected = Some(PairRejection::Residual {
+                        residual: rms * 1e3,
+                        limit: limit * 1e3,
+                        unit: "mm, eq. 15 RMS",
+                    });
+                    rejected_any = true;
+                }
+            }
+        }
+        if rejected_any {
+            if used_indices(reports).len() < MIN_PAIRS {
+                return Err(too_few_pairs(reports));
+            }
+            sol = solve_used(reports, &used_indices(reports), motions, opts)?;
+            continue;
+        }
+        report = Some(rep);
+        break;
+    }
+    let Some(rep) = report else {
+        return Ok((sol, linear, None));
+    };
+    // Final figures at the eq. 15 optimum over the pairs still used.
+    let used = used_indices(reports);
+    let sel: Vec<RelativeMotion> = used
+        .iter()
+        .filter_map(|&k| motions.get(k).copied())
+        .collect();
+    let x = rep.tool0_from_camera;
+    let stats = uncertainty::evaluate(&sel, &x, 1.0, opts, sel.len());
+    sol.tool0_from_camera = x;
+    sol.pairs = sel.len();
+    sol.residual_rot_deg = stats.residual_rot_deg;
+    sol.residual_trans_mm = stats.residual_trans_mm;
+    sol.sigma_rot_deg = stats.sigma_rot_deg;
+    sol.sigma_trans_mm = stats.sigma_trans_mm;
+    sol.iterations += rep.iterations;
+    Ok((sol, linear, Some(rep)))
+}
+
+/// Rejects the used pairs whose rotation residual of `B X = X A` exceeds
+/// `max(max_pair_residual_factor * median, min_pair_residual_limit_deg)` (eye translations
+/// taken as they are, i.e. metric). Returns how many were rejected.
+fn reject_by_pose_residual(
+    reports: &mut [PairReport],
+    motions: &[RelativeMotion],
+    x: &Isometry3<f64>,
+    params: &SelfCalParams,
+) -> usize {
+    let used = used_indices(reports);
+    let res: Vec<f64> = used
+        .iter()
+        .filter_map(|&k| motions.get(k))
+        .map(|m| pair_residual(m, x, 1.0).0.norm().to_degrees())
+        .collect();
+    let limit = (params.max_pair_residual_factor * median(res.clone()))
+        .max(params.min_pair_residual_limit_deg);
+    let mut n = 0;
+    for (&k, &r) in used.iter().zip(&res) {
+        if r > limit
+            && let Some(rep) = reports.get_mut(k)
+        {
+            rep.rejected = Some(PairRejection::Residual {
+                residual: r,
+                limit,
+                unit: "deg, AX=XB rotation",
+            });
+            n += 1;
+        }
+    }
+    n
+}
+
+fn degeneracy_kept(
+    motions: &[RelativeMotion],
+    opts: &HandEyeOptions,
+) -> Result<Vec<RelativeMotion>, SelfCalError> {
+    let report = degeneracy::analyse(motions, opts)?;
+    Ok(report
+        .kept
+        .iter()
+        .filter_map(|&k| motions.get(k).copied())
+        .collect())
+}
+
+/// Per-pair scales from X: `s = u^T((R_B - I) t_X + t_B) / |t_A|`, `u = R_X t_A / |t_A|`.
+fn scales_from_x(
+    motions: &[(Isometry3<f64>, Isometry3<f64>, f64)],
+    x: &Isometry3<f64>,
+) -> Vec<f64> {
+    let r_x = x.rotation.to_rotation_matrix().into_inner();
+    motions
+        .iter()
+        .map(|(a, b, _)| {
+            let ta = a.translation.vector;
+            let na = ta.norm();
+            if na <= 0.0 {
+                return 0.0;
+            }
+            let u = r_x * ta / na;
+            let rb = b.rotation.to_rotation_matrix().into_inner();
+            u.dot(
+                &((rb - nalgebra::Matrix3::identity()) * x.translation.vector
+                    + b.translation.vector),
+            ) / na
+        })
+        .collect()
+}
+
+fn solve_mono(
+    reports: &mut [PairReport],
+    motions: &mut [RelativeMotion],
+    opts: &HandEyeOptions,
+    params: &SelfCalParams,
+) -> Result<Solved, SelfCalError> {
+    // Unit-translation motions as estimated (`|t_A| = 1`).
+    let unit: Vec<(Isometry3<f64>, Isometry3<f64>, f64)> =
+        motions.iter().map(|m| (m.a, m.b, m.weight)).collect();
+    let used = used_indices(reports);
+    let sel: Vec<RelativeMotion> = used
+        .iter()
+        .filter_map(|&k| motions.get(k).copied())
+        .collect();
+    let kept = degeneracy_kept(&sel, opts)?;
+    // Linear: rotation from the Kronecker null space (scale-free), translation with one
+    // scale per pair eliminated ([`mono_translation`]).
+    let mut r_x = kronecker::rotation_camera_from_tool0(&kept)?.transpose();
+    let translation_failure = HandEyeError::NumericalFailure {
+        method: opts.method,
+        what: "monocular translation with per-pair scales (hand rotations about one axis?)",
+    };
+    let mut linear = None;
+    let mut sol: Option<HandEyeSolution> = None;
+    for round in 0..MONO_SCALE_ALTERNATIONS {
+        // (1) R_X fixed: t_X and the per-pair scales by linear least squares.
+        let used = used_indices(reports);
+        let sel_unit: Vec<_> = used.iter().filter_map(|&k| unit.get(k).copied()).collect();
+        let (t_x, _) = mono_translation(&sel_unit, &r_x).ok_or(translation_failure.clone())?;
+        let x = Isometry3::from_parts(Translation3::from(t_x), UnitQuaternion::from_matrix(&r_x));
+        if linear.is_none() {
+            linear = Some(x);
+        }
+        let scales = scales_from_x(&unit, &x);
+        for (k, (m, s)) in motions.iter_mut().zip(&scales).enumerate() {
+            let Some((a, _, _)) = unit.get(k) else {
+                continue;
+            };
+            m.a = Isometry3::from_parts(Translation3::from(a.translation.vector * *s), a.rotation);
+            let Some(r) = reports.get_mut(k) else {
+                continue;
+            };
+            r.scale = *s;
+            match r.rejected {
+                None if *s <= 0.0 => {
+                    r.rejected = Some(PairRejection::NonPositiveScale { scale: *s });
+                }
+                Some(PairRejection::NonPositiveScale { .. }) if *s > 0.0 => r.rejected = None,
+                _ => {}
+            }
+        }
+        let used = used_indices(reports);
+        if used.len() < MIN_PAIRS {
+            return Err(too_few_pairs(reports));
+        }
+        // (2) Scales fixed: X by the pose LM on the metric motions.
+        let s = solve_used(reports, &used, motions, opts)?;
+        r_x = s
+            .tool0_from_camera
+            .rotation
+            .to_rotation_matrix()
+            .into_inner();
+        if round + 2 == MONO_SCALE_ALTERNATIONS {
+            // Pair rejection by residual before the last round.
+            reject_by_pose_residual(reports, motions, &s.tool0_from_camera, params);
+        }
+        sol = Some(s);
+    }
+    let (Some(sol), Some(linear)) = (sol, linear) else {
+        return Err(too_few_pairs(reports));
+    };
+    Ok((sol, linear, None))
+}

@@ -1,0 +1,295 @@
+//! Self-calibration on synthetic scenes: accuracy with an asymmetric mount (no inversion),
+//! refusals, YAML.
+
+mod selfcal_support;
+
+use calib::handeye::pose_error;
+use calib::selfcal::{
+    Mode, SelfCalError, SelfCalParams, calibration_yaml, result_json, self_calibrate,
+};
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use selfcal_support as sup;
+
+#[test]
+fn selfcal_rgbd_synthetic_recovers_asymmetric_mount() {
+    let x_true = sup::true_x();
+    let (views, cam) = sup::views(&sup::camera_poses(16), &x_true, true);
+    let res = self_calibrate(&views, &cam, &SelfCalParams::default()).expect("self-calibration");
+    assert_eq!(res.mode, Mode::Rgbd);
+    let (rot_deg, t_m) = pose_error(&res.solution.tool0_from_camera, &x_true);
+    let (rot_inv, t_inv) = pose_error(&res.solution.tool0_from_camera, &x_true.inverse());
+    let (lin_rot, lin_t) = pose_error(&res.linear_tool0_from_camera, &x_true);
+    eprintln!(
+        "rgbd synthetic: X error {rot_deg:.4} deg, {:.3} mm (linear {lin_rot:.4} deg, {:.3} mm); pairs used {} of {}; median residual {:.4} deg {:.3} mm; vs inverse {rot_inv:.2} deg {:.1} mm",
+        t_m * 1e3,
+        lin_t * 1e3,
+        res.used_pairs(),
+        res.pairs.len(),
+        res.solution.residual_rot_deg,
+        res.solution.residual_trans_mm,
+        t_inv * 1e3
+    );
+    // With the eq. 15 point refinement on clean data it is as good.
+    let p2 = SelfCalParams {
+        refine_eq15: true,
+        ..SelfCalParams::default()
+    };
+    let r2 = self_calibrate(&views, &cam, &p2).expect("self-calibration");
+    let (rot2, t2) = pose_error(&r2.solution.tool0_from_camera, &x_true);
+    eprintln!("with eq. 15: {rot2:.4} deg {:.3} mm", t2 * 1e3);
+    assert!(rot2 < 0.05 && t2 < 0.5e-3);
+    let eq15 = r2.eq15.expect("eq. 15 report");
+    assert!(eq15.final_cost <= eq15.initial_cost);
+    assert!(rot_deg < 0.05, "rotation error {rot_deg} deg");
+    assert!(t_m < 0.5e-3, "translation error {} mm", t_m * 1e3);
+    assert!(
+        res.used_pairs() >= 60,
+        "only {} pairs used",
+        res.used_pairs()
+    );
+    assert_eq!(res.solution.views, 16);
+    assert!(res.eq15.is_none(), "eq. 15 is opt-in");
+}
+
+#[test]
+fn selfcal_mono_synthetic_recovers_mount_with_scale_from_hand() {
+    let x_true = sup::true_x();
+    let (views, cam) = sup::views(&sup::camera_poses(16), &x_true, false);
+    let res = self_calibrate(&views, &cam, &SelfCalParams::default()).expect("self-calibration");
+    assert_eq!(res.mode, Mode::Mono);
+    let (rot_deg, t_m) = pose_error(&res.solution.tool0_from_camera, &x_true);
+    eprintln!(
+        "mono synthetic: X error {rot_deg:.4} deg, {:.3} mm; pairs used {} of {}; median residual {:.4} deg; global scale {:.5}",
+        t_m * 1e3,
+        res.used_pairs(),
+        res.pairs.len(),
+        res.solution.residual_rot_deg,
+        res.solution.scale
+    );
+    assert!(rot_deg < 0.2, "rotation error {rot_deg} deg");
+    assert!(t_m < 5e-3, "translation error {} mm", t_m * 1e3);
+}
+
+#[test]
+fn selfcal_rgbd_wrist_camera_18_views_timing() {
+    let x_true = sup::true_x();
+    let (views, cam) =
+        sup::views_with_camera(&sup::camera_poses(18), &x_true, true, sup::wrist_camera());
+    let t0 = std::time::Instant::now();
+    let res = self_calibrate(&views, &cam, &SelfCalParams::default()).expect("self-calibration");
+    let wall = t0.elapsed().as_secs_f64();
+    let (rot_deg, t_m) = pose_error(&res.solution.tool0_from_camera, &x_true);
+    eprintln!(
+        "rgbd 18 views 1280x1024: {wall:.3} s wall ({} threads); X error {rot_deg:.4} deg, {:.3} mm; {} of {} pairs used",
+        rayon::current_num_threads(),
+        t_m * 1e3,
+        res.used_pairs(),
+        res.pairs.len()
+    );
+    assert!(rot_deg < 0.05 && t_m < 0.5e-3);
+}
+
+#[test]
+fn selfcal_refuses_too_few_views() {
+    let (views, cam) = sup::views(&sup::camera_poses(2), &sup::true_x(), true);
+    let err = self_calibrate(&views, &cam, &SelfCalParams::default()).expect_err("must be refused");
+    assert_eq!(err, SelfCalError::TooFewViews { got: 2, need: 3 });
+}
+
+#[test]
+fn selfcal_refuses_dark_images_with_numbers() {
+    let (mut views, cam) = sup::views(&sup::camera_poses(6), &sup::true_x(), true);
+    // Dusk: the sensor sees almost nothing (levels 0..3).
+    for p in views[3].gray.iter_mut() {
+        *p /= 80;
+    }
+    let err = self_calibrate(&views, &cam, &SelfCalParams::default()).expect_err("must be refused");
+    match &err {
+        SelfCalError::TooFewFeatures {
+            index,
+            features,
+            need,
+            mean_intensity,
+            ..
+        } => {
+            assert_eq!(*index, 3);
+            assert!(features < need);
+            assert!(*mean_intensity < 4.0);
+        }
+        other => panic!("expected TooFewFeatures, got {other:?}"),
+    }
+    assert!(err.to_string().contains("too dark"), "{err}");
+}
+
+#[test]
+fn selfcal_refuses_textureless_views() {
+    let (mut views, cam) = sup::views(&sup::camera_poses(6), &sup::true_x(), true);
+    for v in &mut views {
+        for p in v.gray.iter_mut() {
+            *p = 140;
+        }
+    }
+    let err = self_calibrate(&views, &cam, &SelfCalParams::default()).expect_err("must be refused");
+    assert!(
+        matches!(
+            err,
+            SelfCalError::TooFewFeatures {
+                index: 0,
+                features: 0,
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+}
+
+#[test]
+fn selfcal_refuses_single_axis_motion() {
+    // Hand rotations all about the vertical axis (plus translations): R_X is not observable
+    // about that axis.
+    let x = sup::true_x();
+    let down = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI);
+    let poses: Vec<Isometry3<f64>> = (0..8)
+        .map(|k| {
+            let yaw = 0.25 * k as f64;
+            let world_from_tool = Isometry3::from_parts(
+                Translation3::new(0.01 * k as f64, -0.01 * k as f64, 0.5),
+                down * UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw),
+            );
+            world_from_tool * x
+        })
+        .collect();
+    let (views, cam) = sup::views(&poses, &x, true);
+    let err = self_calibrate(&views, &cam, &SelfCalParams::default()).expect_err("must be refused");
+    assert!(
+        matches!(
+            err,
+            SelfCalError::HandEye(calib::handeye::HandEyeError::DegenerateRotations { .. })
+        ),
+        "{err:?}"
+    );
+}
+
+#[test]
+fn selfcal_refuses_when_views_do_not_overlap() {
+    // Views looking at far-apart parts of the plane share no features.
+    let poses: Vec<Isometry3<f64>> = (0..5)
+        .map(|k| {
+            let c = -0.45 + 0.22 * k as f64;
+            sup::look_at(
+                Point3::new(c, 0.02 * k as f64, 0.3),
+                Point3::new(c + 0.02, 0.0, 0.0),
+                0.4 * k as f64,
+            )
+        })
+        .collect();
+    let (views, cam) = sup::views(&poses, &sup::true_x(), true);
+    let err = self_calibrate(&views, &cam, &SelfCalParams::default()).expect_err("must be refused");
+    // Either too few pairs match, or the few chance matches give motions that contradict the
+    // hand: both are refusals, never an X.
+    match err {
+        SelfCalError::TooFewPairs {
+            usable,
+            too_few_matches,
+            ..
+        } => {
+            assert!(usable < 2);
+            assert!(too_few_matches > 0);
+        }
+        SelfCalError::HandEye(calib::handeye::HandEyeError::InconsistentMotions { .. }) => {}
+        other => panic!("expected TooFewPairs or InconsistentMotions, got {other:?}"),
+    }
+}
+
+#[test]
+fn selfcal_yaml_names_direction_and_inverse() {
+    let x_true = sup::true_x();
+    let (views, cam) = sup::views(&sup::camera_poses(8), &x_true, true);
+    let res = self_calibrate(&views, &cam, &SelfCalParams::default()).expect("self-calibration");
+    let yaml = calibration_yaml(&res, "ours", "camera_color_optical_frame");
+    assert!(yaml.contains("direction: tool0_from_camera"));
+    assert!(yaml.contains("tool0_from_camera:\n"));
+    assert!(yaml.contains("camera_from_tool0:\n"));
+    assert!(yaml.contains("parent_frame: tool0\n  child_frame: camera_color_optical_frame"));
+    assert!(yaml.contains("mode: rgbd"));
+    // The first translation printed is X's, round-trip exact.
+    let t = res.solution.tool0_from_camera.translation.vector;
+    let line = format!("translation_m: [{:?}, {:?}, {:?}]", t.x, t.y, t.z);
+    let first = yaml.find("translation_m").unwrap_or(usize::MAX);
+    assert_eq!(yaml.find(&line), Some(first), "{yaml}");
+    // The JSON: DESIGN.md s4 fields, tool0_from_camera, mode, and the per-pair reports.
+    let json = result_json(&res, "ours", "camera_color_optical_frame");
+    assert_eq!(json["mode"], "rgbd");
+    assert_eq!(json["frame"], "tool0");
+    assert_eq!(json["translation_m"][0].as_f64(), Some(t.x));
+    let reports = json["pair_reports"].as_array().map_or(0, Vec::len);
+    assert_eq!(reports, 28); // 8 views
+    assert_eq!(json["views"], 8);
+}
+
+#[test]
+fn selfcal_is_deterministic_across_thread_counts() {
+    let (views, cam) = sup::views(&sup::camera_poses(7), &sup::true_x(), true);
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool");
+        pool.install(|| self_calibrate(&views, &cam, &SelfCalParams::default()))
+            .expect("self-calibration")
+    };
+    let one = run(1);
+    let three = run(3);
+    // Debug text compares NaN figures (pairs without a motion) as equal, bit for bit otherwise
+    // (floats print round-trip exact).
+    assert_eq!(
+        format!("{one:?}"),
+        format!("{three:?}"),
+        "results must not depend on the thread count"
+    );
+}
+
+#[test]
+fn selfcal_rgbd_with_hand_and_depth_noise() {
+    // DESIGN.md s6: hand poses are never perfect (~0.2 mm, ~0.02 deg per joint) and depth
+    // noise is ~0.1 mm at 0.5 m growing with z^2.
+    let x_true = sup::true_x();
+    let (mut views, cam) = sup::views(&sup::camera_poses(16), &x_true, true);
+    let mut state = 12345u64;
+    let mut normal = move || {
+        // Box-Muller on a SplitMix64 stream (seeded: deterministic).
+        let mut next = || {
+            state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (u1, u2) = (next().max(1e-300), next());
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    };
+    for v in &mut views {
+        let dt = Vector3::new(normal(), normal(), normal()) * 0.3e-3;
+        let dr = Vector3::new(normal(), normal(), normal()) * 0.03f64.to_radians();
+        v.base_from_tool0 *=
+            Isometry3::from_parts(Translation3::from(dt), UnitQuaternion::from_scaled_axis(dr));
+        if let Some(d) = v.depth_m.as_mut() {
+            for z in d.iter_mut().filter(|z| **z > 0.0) {
+                let zf = f64::from(*z);
+                *z = (zf + normal() * 1e-4 * (zf / 0.5).powi(2)) as f32;
+            }
+        }
+    }
+    let res = self_calibrate(&views, &cam, &SelfCalParams::default()).expect("self-calibration");
+    let (rot_deg, t_m) = pose_error(&res.solution.tool0_from_camera, &x_true);
+    eprintln!(
+        "rgbd noisy (hand 0.3 mm / 0.03 deg, depth 0.1 mm @ 0.5 m): X error {rot_deg:.4} deg, {:.3} mm; sigma {:.4} deg {:.3} mm; {} of {} pairs",
+        t_m * 1e3,
+        res.solution.sigma_rot_deg,
+        res.solution.sigma_trans_mm,
+        res.used_pairs(),
+        res.pairs.len()
+    );
+    assert!(rot_deg < 0.1, "rotation error {rot_deg} deg");
+    assert!(t_m < 1.5e-3, "translation error {} mm", t_m * 1e3);
+}
