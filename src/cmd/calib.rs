@@ -25,6 +25,26 @@ pub enum CalibCommand {
     Match(MatchArgs),
     /// Hand-eye calibration from a recording of a chessboard (corners, PnP, AX=XB).
     Board(BoardArgs),
+    /// Hand-eye SELF-calibration from a recording's natural scene features (no board):
+    /// RGB-D when depth is recorded, monocular otherwise.
+    #[command(name = "self")]
+    SelfCal(SelfArgs),
+}
+
+/// Arguments of `rodlog calib self`.
+#[derive(Debug, Args)]
+pub struct SelfArgs {
+    /// Recording with wrist images (and depth), camera info and the arm's /tf.
+    pub rec: PathBuf,
+    /// Method: ours (the paper's pipeline). `zhi` comes with the experiments.
+    #[arg(long, default_value = "ours")]
+    pub method: String,
+    /// Print one JSON object (DESIGN.md section 4, plus per-pair reports) on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Also write the result as YAML (parent tool0, child camera, direction named).
+    #[arg(long)]
+    pub yaml: Option<PathBuf>,
 }
 
 /// Arguments of `rodlog calib board`.
@@ -93,6 +113,7 @@ pub fn run(command: &CalibCommand) -> Result<()> {
         CalibCommand::Handeye(args) => handeye(args),
         CalibCommand::Match(args) => match_images(args),
         CalibCommand::Board(args) => board(args),
+        CalibCommand::SelfCal(args) => self_calibration(args),
     }
 }
 
@@ -156,6 +177,44 @@ fn board(args: &BoardArgs) -> Result<()> {
             views.len()
         );
         print_human(&solution, method);
+    }
+    Ok(())
+}
+
+fn self_calibration(args: &SelfArgs) -> Result<()> {
+    use calib::selfcal::{
+        SelfCalParams, calibration_yaml, result_json, self_calibrate, views_from_messages,
+    };
+    if args.method != "ours" {
+        bail!(
+            "calib self --method {}: only `ours` is available (the `zhi` baseline comes with the experiments)",
+            args.method
+        );
+    }
+    let messages = super::recording_views::read_calibration_messages(&args.rec)?;
+    let (views, camera) = views_from_messages(&messages)
+        .with_context(|| format!("cannot build calibration views from {}", args.rec.display()))?;
+    let params = SelfCalParams::for_camera(&camera);
+    let result = self_calibrate(&views, &camera, &params).context("self-calibration refused")?;
+    if let Some(path) = &args.yaml {
+        std::fs::write(path, calibration_yaml(&result, &args.method, CAMERA_FRAME))
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    if args.json {
+        super::print_stdout(&serde_json::to_string(&result_json(
+            &result,
+            &args.method,
+            CAMERA_FRAME,
+        ))?)?;
+    } else {
+        println!(
+            "self-calibration ({}): {} views, {} of {} pairs used",
+            result.mode.name(),
+            views.len(),
+            result.used_pairs(),
+            result.pairs.len()
+        );
+        print_human(&result.solution, Method::Ours);
     }
     Ok(())
 }

@@ -152,7 +152,6 @@ fn sim_world(scenario: &Scenario) -> anyhow::Result<sim::SimWorld> {
         .as_ref()
         .map_or_else(|| scenario.name.clone(), |p| p.display().to_string());
     let mut s = sim::Scenario::parse(&scenario.source_text, &origin)?;
-    s.seed = scenario.seed;
     let overrides: Vec<(String, String)> = scenario
         .params
         .iter()
@@ -161,6 +160,8 @@ fn sim_world(scenario: &Scenario) -> anyhow::Result<sim::SimWorld> {
         .collect();
     // Keys that are not the simulator's are stage parameters: the pipeline reads them.
     let _stage_keys = s.apply_overrides(&overrides)?;
+    // After the overrides: the file's own `seed` key must not undo `--seed`.
+    s.seed = scenario.seed;
     Ok(sim::SimWorld::from_scenario(&s)?)
 }
 

@@ -159,3 +159,30 @@ fn to_gray(img: &msgs::sensor_msgs::Image) -> Result<image::GrayImage> {
     }
     image::GrayImage::from_raw(img.width, img.height, gray).context("image size overflow")
 }
+
+/// Every message self-calibration may read (images, depth, camera info, /tf, /tf_static),
+/// decoded, in log-time order. Ground truth (`/sim/...`) is never read.
+///
+/// # Errors
+/// Unreadable file or undecodable message.
+pub fn read_calibration_messages(path: &Path) -> Result<Vec<(String, Msg)>> {
+    let mut reader =
+        McapReader::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let filter = ReadFilter::all().with_topics([
+        topics::TF.to_owned(),
+        topics::TF_STATIC.to_owned(),
+        topics::CAMERA_COLOR_INFO.to_owned(),
+        topics::CAMERA_COLOR_IMAGE.to_owned(),
+        topics::CAMERA_DEPTH_IMAGE.to_owned(),
+    ]);
+    let mut out = Vec::new();
+    for message in reader.messages(&filter) {
+        let message = message?;
+        let topic = message.topic().to_owned();
+        let msg = message
+            .decode()
+            .with_context(|| format!("decoding {topic}"))?;
+        out.push((topic, msg));
+    }
+    Ok(out)
+}
