@@ -1,5 +1,6 @@
 //! Match pictures: the two images side by side (A left, B right, top-aligned), a line per
-//! match, GMS inliers green drawn over rejected matches in red, keypoints as small cyan
+//! match, GMS inliers green (thick, opaque) drawn over rejected matches in red (thin,
+//! translucent, so that thousands of them do not hide the inliers), keypoints as small cyan
 //! crosses.
 
 use image::{Rgb, RgbImage};
@@ -21,13 +22,26 @@ fn put(img: &mut RgbImage, x: i64, y: i64, c: Rgb<u8>) {
     }
 }
 
-/// Bresenham line from `(x0, y0)` to `(x1, y1)`, clipped to the image.
-pub fn draw_line(img: &mut RgbImage, (x0, y0): (i64, i64), (x1, y1): (i64, i64), c: Rgb<u8>) {
+/// Opacity of rejected-match lines.
+const REJECTED_ALPHA: f32 = 0.25;
+
+fn blend(img: &mut RgbImage, x: i64, y: i64, c: Rgb<u8>, alpha: f32) {
+    if x >= 0 && y >= 0 && x < i64::from(img.width()) && y < i64::from(img.height()) {
+        let p = img.get_pixel_mut(x as u32, y as u32);
+        for k in 0..3 {
+            let v = f32::from(p.0[k]) * (1.0 - alpha) + f32::from(c.0[k]) * alpha;
+            p.0[k] = v.round().clamp(0.0, 255.0) as u8;
+        }
+    }
+}
+
+/// Points of the Bresenham line from `(x0, y0)` to `(x1, y1)`.
+fn line_points((x0, y0): (i64, i64), (x1, y1): (i64, i64), mut f: impl FnMut(i64, i64)) {
     let (dx, dy) = ((x1 - x0).abs(), -(y1 - y0).abs());
     let (sx, sy) = (if x0 < x1 { 1 } else { -1 }, if y0 < y1 { 1 } else { -1 });
     let (mut x, mut y, mut err) = (x0, y0, dx + dy);
     loop {
-        put(img, x, y, c);
+        f(x, y);
         if x == x1 && y == y1 {
             break;
         }
@@ -41,6 +55,11 @@ pub fn draw_line(img: &mut RgbImage, (x0, y0): (i64, i64), (x1, y1): (i64, i64),
             y += sy;
         }
     }
+}
+
+/// Bresenham line from `(x0, y0)` to `(x1, y1)`, clipped to the image.
+pub fn draw_line(img: &mut RgbImage, p: (i64, i64), q: (i64, i64), c: Rgb<u8>) {
+    line_points(p, q, |x, y| put(img, x, y, c));
 }
 
 /// The side-by-side picture (module docs). `inliers[i]` belongs to `matches[i]` (missing
@@ -73,13 +92,22 @@ pub fn draw_matches(
             ((kb.x + off).round() as i64, kb.y.round() as i64),
         ))
     };
+    // Inlier lines get thicker on big images so they stay visible when scaled down.
+    let half_width = i64::from(h / 700);
     for pass in [false, true] {
         for (i, m) in matches.iter().enumerate() {
             if inliers.get(i).copied().unwrap_or(false) != pass {
                 continue;
             }
-            if let Some((p, q)) = ends(m) {
-                draw_line(&mut img, p, q, if pass { INLIER } else { REJECTED });
+            let Some((p, q)) = ends(m) else { continue };
+            if pass {
+                line_points(p, q, |x, y| {
+                    for d in -half_width..=half_width {
+                        put(&mut img, x, y + d, INLIER);
+                    }
+                });
+            } else {
+                line_points(p, q, |x, y| blend(&mut img, x, y, REJECTED, REJECTED_ALPHA));
             }
         }
     }
