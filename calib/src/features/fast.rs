@@ -3,9 +3,11 @@
 //!
 //! A pixel `p` with intensity `I_p` is a corner at threshold `t` when 9 contiguous pixels of
 //! the 16-pixel Bresenham circle of radius 3 are all brighter than `I_p + t` or all darker
-//! than `I_p - t`. Any arc of 9 contains one of the compass points {0, 8} and one of {4, 12},
-//! so a pixel with no bright (dark) pixel in both pairs is rejected before the full test;
-//! that early test runs over whole rows and vectorises. The corner score is the largest
+//! than `I_p - t`. Any arc of 9 contains one pixel of each opposite pair `{i, i + 8}`, so a
+//! pixel lacking a bright (dark) pixel in any of the 8 pairs is rejected early; that test
+//! runs over whole rows and vectorises. Blocks of 16 columns holding a survivor then get
+//! the exact test for all 16 columns at once (byte lanes), and only corners are scored.
+//! The corner score is the largest
 //! margin that still makes `p` a corner:
 //! `score = max over arcs A of min_{i in A} |I_i - I_p|` (bright arcs with `I_i - I_p`, dark
 //! with `I_p - I_i`), so `p` is a corner at every `t < score`. Non-maximum suppression keeps
@@ -210,10 +212,10 @@ impl FastDetector {
                 continue;
             };
             {
-                // Necessary condition on four opposite pairs of the circle: any arc of 9
-                // holds one pixel of each pair (i, i + 8), so a corner has a bright (dark)
-                // pixel in pairs 0/8, 4/12, 2/10 and 6/14. Branch-free over whole rows so it
-                // vectorises (16 pixels per SSE register).
+                // Necessary condition on the eight opposite pairs of the circle: any arc
+                // of 9 holds one pixel of each pair (i, i + 8), so a corner has a bright
+                // (dark) pixel in every pair. Branch-free over whole rows so it vectorises
+                // (16 pixels per SSE register).
                 let c = &row[x0..x0 + n];
                 let p0 = &up[x0..x0 + n];
                 let p8 = &dn[x0..x0 + n];
@@ -223,6 +225,14 @@ impl FastDetector {
                 let p10 = &r5[x0 - 2..x0 - 2 + n];
                 let p6 = &r5[x0 + 2..x0 + 2 + n];
                 let p14 = &r1[x0 - 2..x0 - 2 + n];
+                let p1 = &up[x0 + 1..x0 + 1 + n];
+                let p9 = &dn[x0 - 1..x0 - 1 + n];
+                let p3 = &r2[x0 + 3..x0 + 3 + n];
+                let p11 = &r4[x0 - 3..x0 - 3 + n];
+                let p5 = &r4[x0 + 3..x0 + 3 + n];
+                let p13 = &r2[x0 - 3..x0 - 3 + n];
+                let p7 = &dn[x0 + 1..x0 + 1 + n];
+                let p15 = &up[x0 - 1..x0 - 1 + n];
                 let cand = &mut self.cand[..n];
                 for i in 0..n {
                     let hi = c[i].saturating_add(t);
@@ -232,17 +242,54 @@ impl FastDetector {
                     let bright = (b(p0[i]) | b(p8[i]))
                         & (b(p4[i]) | b(p12[i]))
                         & (b(p2[i]) | b(p10[i]))
-                        & (b(p6[i]) | b(p14[i]));
+                        & (b(p6[i]) | b(p14[i]))
+                        & (b(p1[i]) | b(p9[i]))
+                        & (b(p3[i]) | b(p11[i]))
+                        & (b(p5[i]) | b(p13[i]))
+                        & (b(p7[i]) | b(p15[i]));
                     let dark = (d(p0[i]) | d(p8[i]))
                         & (d(p4[i]) | d(p12[i]))
                         & (d(p2[i]) | d(p10[i]))
-                        & (d(p6[i]) | d(p14[i]));
+                        & (d(p6[i]) | d(p14[i]))
+                        & (d(p1[i]) | d(p9[i]))
+                        & (d(p3[i]) | d(p11[i]))
+                        & (d(p5[i]) | d(p13[i]))
+                        & (d(p7[i]) | d(p15[i]));
                     cand[i] = bright | dark;
                 }
             }
             let rows = [up, r1, r2, row, r4, r5, dn];
-            // Visit candidates 8 at a time: whole zero words are skipped at once.
-            for (ci, chunk) in self.cand[..n].chunks(8).enumerate() {
+            // Blocks of 16 columns holding a candidate get the full segment test for all
+            // 16 at once (lane-wise, vectorised); only corners reach the scalar scoring.
+            let full = n / 16 * 16;
+            for bx in (0..full).step_by(16) {
+                let Some(block) = self.cand.get(bx..bx + 16) else {
+                    continue;
+                };
+                if block.iter().all(|&c| c == 0) {
+                    continue;
+                }
+                let x = x0 + bx;
+                let Some(mask) = block_corners(&rows, x, t) else {
+                    continue;
+                };
+                let mut m = mask;
+                while m != 0 {
+                    let k = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    let Some((cv, vals)) = circle(&rows, x + k) else {
+                        continue;
+                    };
+                    let d: [i16; 16] = std::array::from_fn(|j| i16::from(vals[j]) - i16::from(cv));
+                    self.raw.push(Corner {
+                        x: (x + k) as u32,
+                        y: y as u32,
+                        score: arc_score(&d),
+                    });
+                }
+            }
+            // The remaining columns, candidate by candidate; whole zero words are skipped.
+            for (ci, chunk) in self.cand[full..n].chunks(8).enumerate() {
                 let mut word = match <[u8; 8]>::try_from(chunk) {
                     Ok(b) => u64::from_le_bytes(b),
                     Err(_) => chunk
@@ -253,7 +300,7 @@ impl FastDetector {
                 while word != 0 {
                     let k = (word.trailing_zeros() / 8) as usize;
                     word &= !(0xFFu64 << (8 * k));
-                    let x = x0 + ci * 8 + k;
+                    let x = x0 + full + ci * 8 + k;
                     let Some((cv, vals)) = circle(&rows, x) else {
                         continue;
                     };
@@ -274,6 +321,63 @@ impl FastDetector {
             }
         }
     }
+}
+
+/// The FAST-9 segment test at threshold `t` for the 16 columns `x .. x + 16` of the
+/// middle row of `rows` (`y - 3 ..= y + 3`): bit `k` of the result is set when column `x + k`
+/// is a corner. All 16 columns are tested together on byte arrays (16 lanes), so the
+/// comparisons and the arc search (windowed ANDs of width 2, 4, 8, then 9 over the circle)
+/// vectorise. `None` when the circle leaves the rows.
+#[inline]
+fn block_corners(rows: &[&[u8]; 7], x: usize, t: u8) -> Option<u32> {
+    let lane = |r: usize, dx: i32| -> Option<[u8; 16]> {
+        let start = (x as isize + dx as isize) as usize;
+        rows.get(r)?.get(start..start + 16)?.try_into().ok()
+    };
+    let c = lane(3, 0)?;
+    let mut vals = [[0u8; 16]; 16];
+    for (v, &(dx, dy)) in vals.iter_mut().zip(CIRCLE.iter()) {
+        *v = lane((dy + 3) as usize, dx)?;
+    }
+    let mut bright = [[0u8; 16]; 16];
+    let mut dark = [[0u8; 16]; 16];
+    for k in 0..16 {
+        for i in 0..16 {
+            let (v, p) = (vals[k][i], c[i]);
+            bright[k][i] = u8::from(v > p.saturating_add(t));
+            dark[k][i] = u8::from(v < p.saturating_sub(t));
+        }
+    }
+    let (b, d) = (arcs9(&bright), arcs9(&dark));
+    let mut mask = 0u32;
+    for i in 0..16 {
+        mask |= u32::from(b[i] | d[i]) << i;
+    }
+    Some(mask)
+}
+
+/// Lane-wise: 1 where the 16 circle flags `m[k][lane]` hold 9 contiguous ones.
+#[inline]
+fn arcs9(m: &[[u8; 16]; 16]) -> [u8; 16] {
+    let mut r2 = [[0u8; 16]; 16];
+    for k in 0..16 {
+        for i in 0..16 {
+            r2[k][i] = m[k][i] & m[(k + 1) & 15][i];
+        }
+    }
+    let mut r4 = [[0u8; 16]; 16];
+    for k in 0..16 {
+        for i in 0..16 {
+            r4[k][i] = r2[k][i] & r2[(k + 2) & 15][i];
+        }
+    }
+    let mut any = [0u8; 16];
+    for k in 0..16 {
+        for i in 0..16 {
+            any[i] |= r4[k][i] & r4[(k + 4) & 15][i] & m[(k + 8) & 15][i];
+        }
+    }
+    any
 }
 
 /// Packs 16 bytes of 0/1 into a 16-bit mask (byte `k` -> bit `k`): per 8 bytes,
@@ -330,6 +434,65 @@ mod tests {
         // wraps around: bits 12..15 and 0..4
         assert!(has_arc9(0b1111_0000_0001_1111));
         assert!(!has_arc9(0b0111_0000_0001_1111));
+    }
+
+    /// The scalar segment test of one column, for comparison with [`block_corners`].
+    fn scalar_corner(rows: &[&[u8]; 7], x: usize, t: u8) -> bool {
+        let Some((cv, vals)) = circle(rows, x) else {
+            return false;
+        };
+        let (hi, lo) = (cv.saturating_add(t), cv.saturating_sub(t));
+        has_arc9(pack16(&vals.map(|v| u8::from(v > hi))))
+            || has_arc9(pack16(&vals.map(|v| u8::from(v < lo))))
+    }
+
+    #[test]
+    fn block_test_equals_scalar_test() {
+        // Random rows with runs of extreme values (saturation at 0 and 255) and of a
+        // constant, so both corners and near-corners occur.
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let (mut corners, mut tested) = (0, 0);
+        for _ in 0..3000 {
+            let data: Vec<Vec<u8>> = (0..7)
+                .map(|_| {
+                    let base = (next() % 256) as u8;
+                    (0..22)
+                        .map(|_| match next() % 4 {
+                            0 => 0,
+                            1 => 255,
+                            2 => base,
+                            _ => (next() % 256) as u8,
+                        })
+                        .collect()
+                })
+                .collect();
+            let rows: [&[u8]; 7] = std::array::from_fn(|k| data[k].as_slice());
+            for t in [1u8, 7, 20, 60] {
+                let Some(mask) = block_corners(&rows, 3, t) else {
+                    panic!("block inside the rows was rejected");
+                };
+                for k in 0..16 {
+                    let want = scalar_corner(&rows, 3 + k, t);
+                    assert_eq!(mask >> k & 1 == 1, want, "column {k}, t = {t}");
+                    corners += usize::from(want);
+                    tested += 1;
+                }
+            }
+        }
+        assert!(
+            corners * 100 > tested,
+            "too few corners ({corners}) to test anything"
+        );
+        // Out of the rows: no answer rather than a wrong one.
+        let short = [[0u8; 10]; 7];
+        let rows: [&[u8]; 7] = std::array::from_fn(|k| short[k].as_slice());
+        assert_eq!(block_corners(&rows, 3, 7), None);
     }
 
     #[test]

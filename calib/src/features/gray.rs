@@ -244,7 +244,6 @@ pub const GAUSS7: [u16; 7] = [18, 34, 49, 54, 49, 34, 18];
 #[derive(Clone, Debug, Default)]
 pub struct BlurScratch {
     mid: Vec<u16>,
-    acc: Vec<u16>,
 }
 
 /// Separable 7x7 Gaussian smoothing ([`GAUSS7`]) with replicated borders, `src` -> `dst`.
@@ -257,43 +256,50 @@ pub fn gaussian_blur7(src: &GrayView<'_>, dst: &mut GrayBuf, scratch: &mut BlurS
     if w == 0 || h == 0 {
         return;
     }
-    let BlurScratch { mid, acc } = scratch;
+    let BlurScratch { mid } = scratch;
     mid.clear();
     mid.resize(w + 6, 0);
-    acc.clear();
-    acc.resize(w, 0);
     for (y, out) in dst.data.chunks_exact_mut(w).enumerate() {
         let rows: [&[u8]; 7] = std::array::from_fn(|k| {
             let yy = (y as isize + k as isize - 3).clamp(0, h as isize - 1) as usize;
             src.row(yy).unwrap_or(&[])
         });
-        // Vertical pass into acc, one whole row per tap.
-        for (a, &p) in acc.iter_mut().zip(rows[0].iter()) {
-            *a = GAUSS7[0] * u16::from(p);
-        }
-        for (k, row) in rows.iter().enumerate().skip(1) {
-            let wk = GAUSS7[k];
-            for (a, &p) in acc.iter_mut().zip(row.iter()) {
-                *a += wk * u16::from(p);
-            }
-        }
-        for (m, &a) in mid[3..w + 3].iter_mut().zip(acc.iter()) {
-            *m = (a + 128) >> 8;
+        // Vertical pass into mid, one fused pass over the seven rows; the kernel is
+        // symmetric, so mirrored taps are added before the multiply.
+        let (Some(r0), Some(r1), Some(r2), Some(r3), Some(r4), Some(r5), Some(r6)) = (
+            rows[0].get(..w),
+            rows[1].get(..w),
+            rows[2].get(..w),
+            rows[3].get(..w),
+            rows[4].get(..w),
+            rows[5].get(..w),
+            rows[6].get(..w),
+        ) else {
+            continue;
+        };
+        let [g0, g1, g2, g3, ..] = GAUSS7;
+        let v = |i: usize| {
+            g0 * (u16::from(r0[i]) + u16::from(r6[i]))
+                + g1 * (u16::from(r1[i]) + u16::from(r5[i]))
+                + g2 * (u16::from(r2[i]) + u16::from(r4[i]))
+                + g3 * u16::from(r3[i])
+        };
+        for (i, m) in mid[3..w + 3].iter_mut().enumerate() {
+            *m = (v(i) + 128) >> 8;
         }
         let (first, last) = (mid[3], mid[w + 2]);
         mid[..3].fill(first);
         mid[w + 3..].fill(last);
-        // Horizontal pass: seven shifted whole-row multiply-adds.
-        for (a, &m) in acc.iter_mut().zip(mid[..w].iter()) {
-            *a = GAUSS7[0] * m;
-        }
-        for (k, &wk) in GAUSS7.iter().enumerate().skip(1) {
-            for (a, &m) in acc.iter_mut().zip(mid[k..k + w].iter()) {
-                *a += wk * m;
-            }
-        }
-        for (o, &a) in out.iter_mut().zip(acc.iter()) {
-            *o = ((a + 128) >> 8) as u8;
+        // Horizontal pass, fused the same way over seven shifted views of mid.
+        let m: [&[u16]; 7] = std::array::from_fn(|k| mid.get(k..k + w).unwrap_or(&[]));
+        let [m0, m1, m2, m3, m4, m5, m6] = m;
+        for (i, o) in out
+            .iter_mut()
+            .enumerate()
+            .take(m0.len().min(m6.len()).min(m3.len()))
+        {
+            let h = g0 * (m0[i] + m6[i]) + g1 * (m1[i] + m5[i]) + g2 * (m2[i] + m4[i]) + g3 * m3[i];
+            *o = ((h + 128) >> 8) as u8;
         }
     }
 }

@@ -376,6 +376,63 @@ impl OrbExtractor {
 /// `b = sum Iy^2`, `c = sum Ix Iy` (OpenCV's scaling). The caller keeps the window
 /// (radius 4 with the Sobel taps) inside the image; pixels outside read as 0.
 pub fn harris_response(img: &GrayView<'_>, x: usize, y: usize) -> f32 {
+    match harris_window(img, x, y) {
+        Some(win) => harris_from_window(&win),
+        None => harris_response_clamped(img, x, y),
+    }
+}
+
+/// Side of the pixel window the Harris response reads: the block plus the Sobel taps.
+const HARRIS_WIN: usize = HARRIS_BLOCK + 2;
+
+/// The [`HARRIS_WIN`]-square window centred on `(x, y)`, or `None` when it leaves the image.
+fn harris_window(
+    img: &GrayView<'_>,
+    x: usize,
+    y: usize,
+) -> Option<[[i32; HARRIS_WIN]; HARRIS_WIN]> {
+    let r = HARRIS_WIN / 2;
+    let (x0, y0) = (x.checked_sub(r)?, y.checked_sub(r)?);
+    let mut win = [[0i32; HARRIS_WIN]; HARRIS_WIN];
+    for (j, w) in win.iter_mut().enumerate() {
+        let px: &[u8; HARRIS_WIN] = img.row(y0 + j)?.get(x0..x0 + HARRIS_WIN)?.try_into().ok()?;
+        *w = px.map(i32::from);
+    }
+    Some(win)
+}
+
+/// [`harris_response`] on a window held in registers (no per-pixel bounds checks); the
+/// same integer sums, hence the same result, as [`harris_response_clamped`].
+fn harris_from_window(w: &[[i32; HARRIS_WIN]; HARRIS_WIN]) -> f32 {
+    let (mut a, mut b, mut c) = (0i64, 0i64, 0i64);
+    for j in 1..HARRIS_WIN - 1 {
+        let (up, mid, dn) = (&w[j - 1], &w[j], &w[j + 1]);
+        let (mut sa, mut sb, mut sc) = (0i32, 0i32, 0i32);
+        for i in 1..HARRIS_WIN - 1 {
+            let ix =
+                (mid[i + 1] - mid[i - 1]) * 2 + (up[i + 1] - up[i - 1]) + (dn[i + 1] - dn[i - 1]);
+            let iy = (dn[i] - up[i]) * 2 + (dn[i - 1] - up[i - 1]) + (dn[i + 1] - up[i + 1]);
+            sa += ix * ix;
+            sb += iy * iy;
+            sc += ix * iy;
+        }
+        a += i64::from(sa);
+        b += i64::from(sb);
+        c += i64::from(sc);
+    }
+    harris_scale(a, b, c)
+}
+
+/// `(a b - c^2 - k (a + b)^2) / (4 * 7 * 255)^4` (OpenCV's scaling).
+fn harris_scale(a: i64, b: i64, c: i64) -> f32 {
+    let scale = 1.0 / (4.0 * HARRIS_BLOCK as f64 * 255.0);
+    let s4 = scale * scale * scale * scale;
+    let (a, b, c) = (a as f64, b as f64, c as f64);
+    ((a * b - c * c - f64::from(HARRIS_K) * (a + b) * (a + b)) * s4) as f32
+}
+
+/// [`harris_response`] near the border: pixels outside the data read as 0.
+fn harris_response_clamped(img: &GrayView<'_>, x: usize, y: usize) -> f32 {
     let r = (HARRIS_BLOCK / 2) as isize;
     let stride = img.stride() as isize;
     let data = img.data();
@@ -395,10 +452,7 @@ pub fn harris_response(img: &GrayView<'_>, x: usize, y: usize) -> f32 {
             c += i64::from(ix * iy);
         }
     }
-    let scale = 1.0 / (4.0 * HARRIS_BLOCK as f64 * 255.0);
-    let s4 = scale * scale * scale * scale;
-    let (a, b, c) = (a as f64, b as f64, c as f64);
-    ((a * b - c * c - f64::from(HARRIS_K) * (a + b) * (a + b)) * s4) as f32
+    harris_scale(a, b, c)
 }
 
 /// Intensity-centroid orientation (ORB eq. 1-3) over the disc `|v| <= r`,
@@ -483,4 +537,38 @@ pub fn describe(
         *word = bits;
     }
     Descriptor(words)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::features::synth::textured_image;
+
+    #[test]
+    fn harris_window_path_equals_clamped_path() {
+        let img = textured_image(64, 48, 3);
+        let view = img.view();
+        let mut nonzero = 0;
+        for y in 4..44 {
+            for x in 4..60 {
+                let fast = harris_response(&view, x, y);
+                assert!(harris_window(&view, x, y).is_some(), "({x}, {y}) inside");
+                assert_eq!(
+                    fast.to_bits(),
+                    harris_response_clamped(&view, x, y).to_bits()
+                );
+                nonzero += usize::from(fast != 0.0);
+            }
+        }
+        assert!(
+            nonzero > 1000,
+            "textured image gave {nonzero} non-zero responses"
+        );
+        // At the border the window leaves the image and the clamped path answers.
+        assert!(harris_window(&view, 3, 10).is_none());
+        assert_eq!(
+            harris_response(&view, 3, 10).to_bits(),
+            harris_response_clamped(&view, 3, 10).to_bits()
+        );
+    }
 }
