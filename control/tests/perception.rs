@@ -498,7 +498,7 @@ fn partial_handle_view_is_refused_and_messages_round_trip() {
         centre: Point3::new(0.0, 0.0, 0.4),
         direction: Vector3::x(),
         radius_m: model.radius_m,
-        half_length_m: 0.03, // only 60 mm of the 120 mm bar visible
+        half_length_m: 0.03, // only 60 mm of the 250 mm handle visible
     };
     let scene = Scene {
         cylinders: vec![handle],
