@@ -133,7 +133,7 @@ fn handeye(args: &HandeyeArgs) -> Result<()> {
         let value = calibration_json(&solution, method.name(), "poses", CAMERA_FRAME);
         super::print_stdout(&serde_json::to_string(&value)?)?;
     } else {
-        print_human(&solution, method);
+        super::print_stdout(&human_text(&solution, method))?;
     }
     Ok(())
 }
@@ -168,15 +168,15 @@ fn board(args: &BoardArgs) -> Result<()> {
     } else {
         let rms: Vec<f64> = board_views.iter().map(|b| b.rms_px).collect();
         let worst = rms.iter().copied().fold(0.0_f64, f64::max);
-        println!(
+        super::print_stdout(&format!(
             "board {}x{} ({:.1} mm squares) found in {} of {} images, reprojection RMS <= {worst:.3} px",
             spec.cols,
             spec.rows,
             args.square * 1e3,
             board_views.len(),
             views.len()
-        );
-        print_human(&solution, method);
+        ))?;
+        super::print_stdout(&human_text(&solution, method))?;
     }
     Ok(())
 }
@@ -207,14 +207,14 @@ fn self_calibration(args: &SelfArgs) -> Result<()> {
             CAMERA_FRAME,
         ))?)?;
     } else {
-        println!(
+        super::print_stdout(&format!(
             "self-calibration ({}): {} views, {} of {} pairs used",
             result.mode.name(),
             views.len(),
             result.used_pairs(),
             result.pairs.len()
-        );
-        print_human(&result.solution, Method::Ours);
+        ))?;
+        super::print_stdout(&human_text(&result.solution, Method::Ours))?;
     }
     Ok(())
 }
@@ -239,50 +239,64 @@ fn match_images(args: &MatchArgs) -> Result<()> {
     if args.json {
         super::print_stdout(&match_json(&result))?;
     } else {
-        println!("{}", match_summary(&result));
+        super::print_stdout(&match_summary(&result))?;
         if let Some(p) = &args.picture {
-            println!("picture: {}", p.display());
+            super::print_stdout(&format!("picture: {}", p.display()))?;
         }
     }
     Ok(())
 }
 
-fn print_human(s: &HandEyeSolution, method: Method) {
+/// The human-readable result (the JSON's figures, with units and the direction spelled out).
+fn human_text(s: &HandEyeSolution, method: Method) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::new();
     let t = s.tool0_from_camera.translation.vector;
     let q = s.tool0_from_camera.rotation;
     let (roll, pitch, yaw) = q.euler_angles();
-    println!(
+    let _ = writeln!(
+        out,
         "tool0_from_camera  (parent tool0, child {CAMERA_FRAME}; maps camera points into tool0)"
     );
-    println!("  method            {}", method.name());
-    println!("  translation_m     [{:.6}, {:.6}, {:.6}]", t.x, t.y, t.z);
-    println!(
+    let _ = writeln!(out, "  method            {}", method.name());
+    let _ = writeln!(
+        out,
+        "  translation_m     [{:.6}, {:.6}, {:.6}]",
+        t.x, t.y, t.z
+    );
+    let _ = writeln!(
+        out,
         "  quaternion_xyzw   [{:.9}, {:.9}, {:.9}, {:.9}]",
         q.i, q.j, q.k, q.w
     );
-    println!(
+    let _ = writeln!(
+        out,
         "  rpy_deg           [{:.4}, {:.4}, {:.4}]",
         roll.to_degrees(),
         pitch.to_degrees(),
         yaw.to_degrees()
     );
-    println!("  views / pairs     {} / {}", s.views, s.pairs);
+    let _ = writeln!(out, "  views / pairs     {} / {}", s.views, s.pairs);
     if !s.rejected_pairs.is_empty() {
-        println!(
+        let _ = writeln!(
+            out,
             "  rejected pairs    {} (hand/eye rotation angles disagree)",
             s.rejected_pairs.len()
         );
     }
-    println!(
+    let _ = writeln!(
+        out,
         "  residual (median) {:.4} deg, {:.3} mm",
         s.residual_rot_deg, s.residual_trans_mm
     );
-    println!(
+    let _ = writeln!(
+        out,
         "  sigma (1-sigma)   {:.4} deg, {:.3} mm",
         s.sigma_rot_deg, s.sigma_trans_mm
     );
-    println!("  condition         {:.3}", s.condition);
+    let _ = writeln!(out, "  condition         {:.3}", s.condition);
     if (s.scale - 1.0).abs() > 0.0 {
-        println!("  scale             {:.6} m per eye unit", s.scale);
+        let _ = writeln!(out, "  scale             {:.6} m per eye unit", s.scale);
     }
+    out.trim_end().to_owned()
 }

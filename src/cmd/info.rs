@@ -27,9 +27,9 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
         .with_context(|| format!("cannot read {}", args.rec.display()))?;
     let report = InfoReport::collect(&args.rec, &mut reader);
     if args.json {
-        println!("{}", report.to_json());
+        super::print_stdout(&report.to_json().to_string())?;
     } else {
-        print!("{}", report.to_human());
+        super::print_stdout(report.to_human().trim_end_matches('\n'))?;
     }
     Ok(())
 }

@@ -267,8 +267,8 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
         ),
     }
     .with_context(|| format!("recording scenario {} to {}", scenario.name, out.display()))?;
-    println!(
-        "recorded {} messages, {} of robot time, to {}{}",
+    let mut text = format!(
+        "recorded {} messages, {} of robot time, to {}{}\n",
         summary.messages,
         summary.end,
         out.display(),
@@ -278,22 +278,22 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
             ""
         }
     );
-    println!(
+    text.push_str(&format!(
         "  world {} msgs, /clock {}, stage outputs {}, commands {} ({} rejected)",
         summary.scheduler.world_messages,
         summary.scheduler.clock_messages,
         summary.scheduler.stage_outputs,
         summary.scheduler.commands,
         summary.scheduler.rejected_commands
-    );
+    ));
     for s in &summary.stages {
-        println!(
-            "  stage {:<22} inputs {:>7}  errors {}{}",
+        text.push_str(&format!(
+            "\n  stage {:<22} inputs {:>7}  errors {}{}",
             s.name,
             s.inputs,
             s.errors,
             if s.disabled { " (stopped)" } else { "" }
-        );
+        ));
     }
-    Ok(())
+    super::print_stdout(&text)
 }

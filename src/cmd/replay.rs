@@ -126,9 +126,13 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<()> {
         f.write_metadata(&whatif::metadata(&report, &source, &changed_text))?;
         f.finish()?;
     }
-    print!("{}", whatif::summary(&report, &changed_text));
+    super::print_stdout(whatif::summary(&report, &changed_text).trim_end_matches('\n'))?;
     if let Some(out) = &args.out {
-        println!("wrote {} messages to {}", report.written, out.display());
+        super::print_stdout(&format!(
+            "wrote {} messages to {}",
+            report.written,
+            out.display()
+        ))?;
     }
     if args.check {
         let compared = report.comparison.compared();
@@ -143,7 +147,9 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<()> {
         if let Some(d) = report.comparison.first_divergence() {
             bail!("replay --check: {compared} outputs compared; first divergence: {d}");
         }
-        println!("check passed: {compared} outputs compared, all identical");
+        super::print_stdout(&format!(
+            "check passed: {compared} outputs compared, all identical"
+        ))?;
     }
     Ok(())
 }
