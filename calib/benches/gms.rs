@@ -3,33 +3,15 @@
 //! `scripts/features/bench_opencv.py`.
 
 use std::hint::black_box;
-use std::path::Path;
 
-use calib::features::command::{crop_resize, load_gray};
-use calib::features::synth::{textured_image, warp_homography};
 use calib::features::{
-    GmsParams, GrayBuf, MatchParams, OrbParams, detect_and_describe, gms_filter, match_brute_force,
+    GmsParams, MatchParams, OrbParams, detect_and_describe, gms_filter, match_brute_force,
 };
 use criterion::{Criterion, criterion_group, criterion_main};
-use nalgebra::Matrix3;
 
-fn frames() -> (GrayBuf, GrayBuf) {
-    let shecar = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/shecar/00.jpg");
-    let a = match load_gray(&shecar) {
-        Ok(full) => GrayBuf {
-            data: crop_resize(&full, 1280, 1024).into_raw(),
-            width: 1280,
-            height: 1024,
-        },
-        Err(e) => {
-            eprintln!("shecar frame unavailable ({e}); benchmarking a synthetic scene");
-            textured_image(1280, 1024, 1)
-        }
-    };
-    let hb = Matrix3::new(0.95, -0.12, 60.0, 0.10, 0.97, -20.0, 2e-5, -1e-5, 1.0);
-    let b = warp_homography(&a, &hb, 1280, 1024, 0).unwrap_or_else(|| a.clone());
-    (a, b)
-}
+#[path = "common/frames.rs"]
+mod frames;
+use frames::frames;
 
 fn gms(c: &mut Criterion) {
     let (a, b) = frames();
