@@ -3,7 +3,8 @@
 //! The frame is shecar `00.jpg` (centre-cropped to 5:4, resized), or a synthetic textured
 //! scene when `../shared/data/shecar` is absent. The frame and a homography warp of it are
 //! written to `target/features-bench/{a,b}.png` so `scripts/features/bench_opencv.py` times
-//! OpenCV on the very same pixels.
+//! OpenCV on the very same pixels. `RODLOG_SIMD=baseline` (or `avx2`) caps the vector level
+//! of the kernels ([`calib::features::simd`]) for an A/B of the same build.
 
 use std::hint::black_box;
 use std::path::Path;

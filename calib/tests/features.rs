@@ -398,8 +398,8 @@ fn results_do_not_depend_on_thread_count() {
     assert_eq!(r1.matches, r2.matches);
     assert_eq!(r1.inliers, r2.inliers);
     let seq = match_brute_force(
-        &r1.features_a.descriptors,
-        &r1.features_b.descriptors,
+        r1.features_a.descriptors.binary().unwrap_or_default(),
+        r1.features_b.descriptors.binary().unwrap_or_default(),
         &MatchParams {
             parallel: false,
             ..Default::default()
@@ -480,5 +480,6 @@ fn match_command_writes_json_and_picture() {
     let err =
         run_match_command(&MatchCommand::new(dir.join("missing.png"), &pb)).expect_err("missing");
     assert!(err.to_string().contains("missing.png"), "{err}");
-    assert!("sift".parse::<MatchMethod>().is_err());
+    assert!("surf".parse::<MatchMethod>().is_err());
+    assert_eq!("sift".parse::<MatchMethod>().ok(), Some(MatchMethod::Sift));
 }

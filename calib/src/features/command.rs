@@ -21,7 +21,7 @@ pub struct MatchCommand {
     pub image_b: PathBuf,
     /// `--method` (default `orb-gms`).
     pub method: MatchMethod,
-    /// `--features` (default 2000).
+    /// `--features` (default 2000): ORB's target count, SIFT's cap on the strongest.
     pub n_features: usize,
     /// `-o`: where to write the match picture (PNG or JPEG by extension).
     pub picture: Option<PathBuf>,
@@ -73,6 +73,7 @@ pub fn run_match_command(cmd: &MatchCommand) -> Result<MatchResult, FeatureError
     let (va, vb) = (GrayView::from_image(&a), GrayView::from_image(&b));
     let mut params = MatchImagesParams::for_method(cmd.method);
     params.orb.n_features = cmd.n_features;
+    params.sift.n_features = cmd.n_features;
     let result = match_images(&va, &vb, cmd.method, &params)?;
     if let Some(out) = &cmd.picture {
         let pic = draw_matches(

@@ -14,6 +14,7 @@
 //! a corner whose score beats its 8 neighbours (ties: the earlier one in raster order wins).
 
 use super::gray::GrayView;
+use super::simd;
 
 /// Radius of the Bresenham circle; corners are never closer than this to the border.
 pub const FAST_RADIUS: usize = 3;
@@ -62,8 +63,36 @@ pub struct Rect {
     pub y1: usize,
 }
 
+/// [`FastDetector::scan`] as a [`simd::Kernel`].
+struct Scan<'a, 'b> {
+    det: &'a mut FastDetector,
+    img: &'a GrayView<'b>,
+    x0: usize,
+    x1: usize,
+    y0: usize,
+    y1: usize,
+    t: u8,
+}
+
+impl simd::Kernel for Scan<'_, '_> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        let Self {
+            det,
+            img,
+            x0,
+            x1,
+            y0,
+            y1,
+            t,
+        } = self;
+        det.scan_rows(img, x0, x1, y0, y1, t);
+    }
+}
+
 /// True when the circular 16-bit mask has 9 contiguous set bits.
-#[inline]
+#[inline(always)]
 fn has_arc9(mask: u32) -> bool {
     let m = mask | (mask << 16);
     let r = m & (m >> 1); // runs of 2
@@ -77,7 +106,7 @@ fn has_arc9(mask: u32) -> bool {
 /// over the 16 arcs of 9 of their smallest margin. Windowed minima/maxima are built by
 /// doubling (2, 4, 8, then 9 wide) over the circle unrolled twice, so the work is a few
 /// lane-wise operations on 16-wide arrays instead of 16 x 9 scalar comparisons.
-#[inline]
+#[inline(always)]
 fn arc_score(d: &[i16; 16]) -> u8 {
     let ext: [i16; 32] = std::array::from_fn(|i| d[i & 15]);
     let mut lo2 = [0i16; 31];
@@ -193,9 +222,24 @@ impl FastDetector {
         }
     }
 
-    /// Collects all corners (no suppression) with centres in `[x0,x1) x [y0,y1)` into `raw`.
+    /// Collects all corners (no suppression) with centres in `[x0,x1) x [y0,y1)` into `raw`,
+    /// at the CPU's best vector level ([`super::simd`]; the same corners on every level).
     /// The caller guarantees the circle stays inside the image.
     fn scan(&mut self, img: &GrayView<'_>, x0: usize, x1: usize, y0: usize, y1: usize, t: u8) {
+        simd::dispatch(Scan {
+            det: self,
+            img,
+            x0,
+            x1,
+            y0,
+            y1,
+            t,
+        });
+    }
+
+    /// The body of [`Self::scan`], inlined into the dispatched function.
+    #[inline(always)]
+    fn scan_rows(&mut self, img: &GrayView<'_>, x0: usize, x1: usize, y0: usize, y1: usize, t: u8) {
         let n = x1 - x0;
         self.cand.clear();
         self.cand.resize(n, 0);
@@ -328,7 +372,7 @@ impl FastDetector {
 /// is a corner. All 16 columns are tested together on byte arrays (16 lanes), so the
 /// comparisons and the arc search (windowed ANDs of width 2, 4, 8, then 9 over the circle)
 /// vectorise. `None` when the circle leaves the rows.
-#[inline]
+#[inline(always)]
 fn block_corners(rows: &[&[u8]; 7], x: usize, t: u8) -> Option<u32> {
     let lane = |r: usize, dx: i32| -> Option<[u8; 16]> {
         let start = (x as isize + dx as isize) as usize;
@@ -357,7 +401,7 @@ fn block_corners(rows: &[&[u8]; 7], x: usize, t: u8) -> Option<u32> {
 }
 
 /// Lane-wise: 1 where the 16 circle flags `m[k][lane]` hold 9 contiguous ones.
-#[inline]
+#[inline(always)]
 fn arcs9(m: &[[u8; 16]; 16]) -> [u8; 16] {
     let mut r2 = [[0u8; 16]; 16];
     for k in 0..16 {
@@ -382,7 +426,7 @@ fn arcs9(m: &[[u8; 16]; 16]) -> [u8; 16] {
 
 /// Packs 16 bytes of 0/1 into a 16-bit mask (byte `k` -> bit `k`): per 8 bytes,
 /// `(x * 0x0102040810204080) >> 56` sums `b_i 2^i` into the top byte without carries.
-#[inline]
+#[inline(always)]
 fn pack16(b: &[u8; 16]) -> u32 {
     const MAGIC: u64 = 0x0102_0408_1020_4080;
     let lo = u64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]]);
@@ -393,7 +437,7 @@ fn pack16(b: &[u8; 16]) -> u32 {
 /// The centre value and the 16 circle values of column `x`, from the seven rows
 /// `y - 3 ..= y + 3`; `None` when the circle leaves the rows. Fixed-size windows keep the
 /// gathers free of per-pixel bounds checks.
-#[inline]
+#[inline(always)]
 fn circle(rows: &[&[u8]; 7], x: usize) -> Option<(u8, [u8; 16])> {
     let lo = x.checked_sub(3)?;
     let w0: [u8; 3] = rows[0].get(x - 1..x + 2)?.try_into().ok()?;

@@ -4,7 +4,7 @@
 //! buffers need no copy). All loops run over whole rows (`chunks`/`zip`) so the compiler
 //! can vectorise them; nothing allocates per pixel.
 
-use super::FeatureError;
+use super::{FeatureError, simd};
 
 /// A borrowed 8-bit gray image: `data[y * stride + x]` is the pixel in column `x`, row `y`.
 #[derive(Clone, Copy, Debug)]
@@ -189,6 +189,27 @@ fn resize_tab(x: usize, s: f64, n: usize) -> (u32, u16) {
 /// blended vertically, `out = ((128 - g) h_j + g h_{j+1} + 2^13) >> 14`.
 /// Sources narrower or shorter than 2 pixels are not resized (`dst` is left as is).
 pub fn resize_bilinear(src: &GrayView<'_>, dst: &mut GrayBuf, scratch: &mut ResizeScratch) {
+    simd::dispatch(Resize { src, dst, scratch });
+}
+
+/// [`resize_bilinear`] as a [`simd::Kernel`].
+struct Resize<'a, 'b> {
+    src: &'a GrayView<'b>,
+    dst: &'a mut GrayBuf,
+    scratch: &'a mut ResizeScratch,
+}
+
+impl simd::Kernel for Resize<'_, '_> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        resize_bilinear_rows(self.src, self.dst, self.scratch);
+    }
+}
+
+/// The body of [`resize_bilinear`], inlined into the dispatched function ([`super::simd`]).
+#[inline(always)]
+fn resize_bilinear_rows(src: &GrayView<'_>, dst: &mut GrayBuf, scratch: &mut ResizeScratch) {
     let (sw, sh, dw, dh) = (src.width, src.height, dst.width, dst.height);
     if sw < 2 || sh < 2 || dw == 0 || dh == 0 {
         return;
@@ -251,6 +272,27 @@ pub struct BlurScratch {
 /// `out = (sum_k w_k v_{x+k} + 128) >> 8`; every intermediate fits in u16, and each pass
 /// runs over whole rows, so both vectorise (8 lanes per SSE register).
 pub fn gaussian_blur7(src: &GrayView<'_>, dst: &mut GrayBuf, scratch: &mut BlurScratch) {
+    simd::dispatch(Blur { src, dst, scratch });
+}
+
+/// [`gaussian_blur7`] as a [`simd::Kernel`].
+struct Blur<'a, 'b> {
+    src: &'a GrayView<'b>,
+    dst: &'a mut GrayBuf,
+    scratch: &'a mut BlurScratch,
+}
+
+impl simd::Kernel for Blur<'_, '_> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        gaussian_blur7_rows(self.src, self.dst, self.scratch);
+    }
+}
+
+/// The body of [`gaussian_blur7`], inlined into the dispatched function ([`super::simd`]).
+#[inline(always)]
+fn gaussian_blur7_rows(src: &GrayView<'_>, dst: &mut GrayBuf, scratch: &mut BlurScratch) {
     let (w, h) = (src.width, src.height);
     dst.reshape(w, h);
     if w == 0 || h == 0 {

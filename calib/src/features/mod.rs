@@ -8,7 +8,11 @@
 //! - [`matcher`]: brute-force Hamming (popcount), cross-check and ratio options.
 //! - [`gms`]: GMS inlier mask (3x3 neighbourhoods, threshold 6 sqrt(mean features), shifted
 //!   grids, optional rotation and scale).
+//! - [`sift`]: the SIFT baseline (DoG scale space, orientation, 128-d descriptor) and its
+//!   brute-force L2 ratio-test matcher.
 //! - [`draw`]: match pictures. [`command`]: what `rodlog calib match` runs.
+//! - [`match_images`]: one entry point for every [`MatchMethod`]; its [`MatchResult`] holds
+//!   method-neutral [`Keypoint`]s and the method's [`Descriptors`] (binary or float).
 //!
 //! # Conventions
 //! Pixel coordinates of the full-size image, x right, y down, origin at the centre of the
@@ -18,6 +22,7 @@
 //! measures the wall time of its phases for the user-facing report (the algorithms
 //! themselves never read a clock).
 
+pub mod akaze;
 pub mod brief_pattern;
 pub mod command;
 pub mod draw;
@@ -27,6 +32,8 @@ pub mod gray;
 pub mod matcher;
 pub mod orb;
 pub mod quadtree;
+pub mod sift;
+pub mod simd;
 pub mod synth;
 
 use std::path::PathBuf;
@@ -36,6 +43,7 @@ pub use gms::{GmsParams, gms_filter};
 pub use gray::{GrayBuf, GrayView};
 pub use matcher::{Match, MatchParams, match_brute_force};
 pub use orb::{OrbExtractor, OrbParams};
+pub use sift::{SiftFeatures, SiftKeypoint, SiftMatchParams, SiftParams};
 
 /// Errors of the feature front end.
 #[derive(Debug, thiserror::Error)]
@@ -75,10 +83,12 @@ pub enum FeatureError {
         value: f64,
     },
     /// A matching method this build does not provide.
-    #[error("unknown or unavailable matching method {name:?} (available: orb-gms, orb-bf)")]
+    #[error("unknown or unavailable matching method {name:?} (available: {available})")]
     UnsupportedMethod {
         /// The requested name.
         name: String,
+        /// The names [`MatchMethod::ALL`] accepts, comma separated.
+        available: String,
     },
     /// An image file could not be read or decoded.
     #[error("cannot read image {path}: {message}")]
@@ -151,40 +161,73 @@ pub enum MatchMethod {
     OrbGms,
     /// ORB + quadtree, brute-force Hamming with cross-check; every match is kept.
     OrbBf,
+    /// SIFT (Lowe 2004), brute-force L2 with Lowe's ratio test 0.8; every match is kept.
+    Sift,
+    /// AKAZE (Alcantarilla et al. 2013), brute-force Hamming with the ratio test 0.8, then a
+    /// fundamental-matrix RANSAC (1 px Sampson) keeps the epipolar-consistent matches.
+    Akaze,
 }
 
 impl MatchMethod {
-    /// The CLI name (`orb-gms`, `orb-bf`).
+    /// Every method, in the order of the CLI help.
+    pub const ALL: &'static [MatchMethod] = &[
+        MatchMethod::OrbGms,
+        MatchMethod::OrbBf,
+        MatchMethod::Sift,
+        MatchMethod::Akaze,
+    ];
+
+    /// The CLI name (`orb-gms`, `orb-bf`, `sift`, `akaze`).
     pub fn name(self) -> &'static str {
         match self {
             MatchMethod::OrbGms => "orb-gms",
             MatchMethod::OrbBf => "orb-bf",
+            MatchMethod::Sift => "sift",
+            MatchMethod::Akaze => "akaze",
         }
+    }
+
+    /// The names of [`MatchMethod::ALL`], comma separated.
+    pub fn available() -> String {
+        Self::ALL
+            .iter()
+            .map(|m| m.name())
+            .collect::<Vec<_>>()
+            .join(", ")
     }
 }
 
 impl std::str::FromStr for MatchMethod {
     type Err = FeatureError;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s {
-            "orb-gms" => Ok(MatchMethod::OrbGms),
-            "orb-bf" => Ok(MatchMethod::OrbBf),
-            other => Err(FeatureError::UnsupportedMethod {
-                name: other.to_owned(),
-            }),
-        }
+        Self::ALL
+            .iter()
+            .copied()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| FeatureError::UnsupportedMethod {
+                name: s.to_owned(),
+                available: Self::available(),
+            })
     }
 }
 
 /// Parameters of [`match_images`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct MatchImagesParams {
-    /// ORB parameters for both images.
+    /// ORB parameters for both images (ORB methods).
     pub orb: OrbParams,
-    /// Brute-force options ([`MatchImagesParams::for_method`] sets the method's defaults).
+    /// Brute-force Hamming options of the ORB methods ([`MatchImagesParams::for_method`]
+    /// sets the method's defaults); `parallel` also decides whether the two images are
+    /// processed concurrently, for every method.
     pub matching: MatchParams,
     /// GMS options (used by [`MatchMethod::OrbGms`]).
     pub gms: GmsParams,
+    /// SIFT parameters for both images ([`MatchMethod::Sift`]).
+    pub sift: SiftParams,
+    /// L2 ratio-test options ([`MatchMethod::Sift`]).
+    pub sift_matching: SiftMatchParams,
+    /// AKAZE, Hamming ratio test and fundamental RANSAC ([`MatchMethod::Akaze`]).
+    pub akaze: akaze::AkazeRansacParams,
 }
 
 impl MatchImagesParams {
@@ -199,6 +242,9 @@ impl MatchImagesParams {
             orb: OrbParams::default(),
             matching,
             gms: GmsParams::default(),
+            sift: SiftParams::default(),
+            sift_matching: SiftMatchParams::default(),
+            akaze: akaze::AkazeRansacParams::default(),
         }
     }
 }
@@ -206,12 +252,101 @@ impl MatchImagesParams {
 /// Wall time of the phases of [`match_images`], milliseconds.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MatchTimings {
-    /// ORB on both images (run concurrently when `matching.parallel`).
+    /// Detection and description of both images (run concurrently when
+    /// `matching.parallel`).
     pub detect_ms: f64,
     /// Brute-force matching.
     pub match_ms: f64,
-    /// GMS (0 for `OrbBf`).
+    /// The filter (GMS; 0 for methods without one).
     pub filter_ms: f64,
+}
+
+/// Descriptors of one image, in the representation of the method that made them.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Descriptors {
+    /// 256-bit rBRIEF (ORB methods).
+    Binary(Vec<Descriptor>),
+    /// 128-d SIFT descriptors (integers `0..=255` in `f32`).
+    Sift(Vec<sift::SiftDescriptor>),
+    /// 486-bit M-LDB (AKAZE).
+    Mldb(Vec<akaze::MldbDescriptor>),
+}
+
+impl Default for Descriptors {
+    fn default() -> Self {
+        Descriptors::Binary(Vec::new())
+    }
+}
+
+impl Descriptors {
+    /// Number of descriptors.
+    pub fn len(&self) -> usize {
+        match self {
+            Descriptors::Binary(d) => d.len(),
+            Descriptors::Sift(d) => d.len(),
+            Descriptors::Mldb(d) => d.len(),
+        }
+    }
+
+    /// True when there are none.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The binary descriptors, if these are.
+    pub fn binary(&self) -> Option<&[Descriptor]> {
+        match self {
+            Descriptors::Binary(d) => Some(d),
+            _ => None,
+        }
+    }
+
+    /// The SIFT descriptors, if these are.
+    pub fn sift(&self) -> Option<&[sift::SiftDescriptor]> {
+        match self {
+            Descriptors::Sift(d) => Some(d),
+            _ => None,
+        }
+    }
+}
+
+/// Keypoints and descriptors of one image in [`MatchResult`], whatever the method:
+/// `keypoints[i]` <-> descriptor `i`. Method-specific keypoint fields are mapped onto
+/// [`Keypoint`] (SIFT: `level` = octave + 1, so 0 is the doubled image; see
+/// [`SiftKeypoint::to_keypoint`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ImageFeatures {
+    /// Keypoints in full-size pixels.
+    pub keypoints: Vec<Keypoint>,
+    /// Their descriptors.
+    pub descriptors: Descriptors,
+}
+
+impl From<Features> for ImageFeatures {
+    fn from(f: Features) -> Self {
+        Self {
+            keypoints: f.keypoints,
+            descriptors: Descriptors::Binary(f.descriptors),
+        }
+    }
+}
+
+impl From<akaze::AkazeFeatures> for ImageFeatures {
+    fn from(f: akaze::AkazeFeatures) -> Self {
+        Self {
+            keypoints: f.keypoints,
+            descriptors: Descriptors::Mldb(f.descriptors),
+        }
+    }
+}
+
+impl From<SiftFeatures> for ImageFeatures {
+    fn from(f: SiftFeatures) -> Self {
+        Self {
+            keypoints: f.keypoints.iter().map(SiftKeypoint::to_keypoint).collect(),
+            descriptors: Descriptors::Sift(f.descriptors),
+        }
+    }
 }
 
 /// Result of [`match_images`].
@@ -224,10 +359,11 @@ pub struct MatchResult {
     /// `(width, height)` of image B.
     pub size_b: (usize, usize),
     /// Features of A.
-    pub features_a: Features,
+    pub features_a: ImageFeatures,
     /// Features of B.
-    pub features_b: Features,
-    /// All brute-force matches (query in A, train in B).
+    pub features_b: ImageFeatures,
+    /// All brute-force matches (query in A, train in B); `distance` is in the method's
+    /// unit (Hamming bits for ORB, squared L2 for SIFT).
     pub matches: Vec<Match>,
     /// `inliers[i]`: `matches[i]` survived the filter.
     pub inliers: Vec<bool>,
@@ -264,7 +400,8 @@ impl MatchResult {
 /// matches and the mask are deterministic and independent of the rayon thread count.
 ///
 /// # Errors
-/// Those of [`OrbExtractor::new`] and [`OrbExtractor::detect_and_describe`].
+/// Those of the method's detector ([`OrbExtractor::new`],
+/// [`OrbExtractor::detect_and_describe`], [`sift::detect_and_describe`]).
 pub fn match_images(
     a: &GrayView<'_>,
     b: &GrayView<'_>,
@@ -272,7 +409,19 @@ pub fn match_images(
     params: &MatchImagesParams,
 ) -> Result<MatchResult, FeatureError> {
     let t0 = Instant::now();
-    let run = |img: &GrayView<'_>| detect_and_describe(img, &params.orb);
+    let run = |img: &GrayView<'_>| -> Result<ImageFeatures, FeatureError> {
+        match method {
+            MatchMethod::OrbGms | MatchMethod::OrbBf => {
+                detect_and_describe(img, &params.orb).map(ImageFeatures::from)
+            }
+            MatchMethod::Sift => {
+                sift::detect_and_describe(img, &params.sift).map(ImageFeatures::from)
+            }
+            MatchMethod::Akaze => {
+                akaze::detect_and_describe_akaze(img, &params.akaze.akaze).map(ImageFeatures::from)
+            }
+        }
+    };
     let (fa, fb) = if params.matching.parallel {
         rayon::join(|| run(a), || run(b))
     } else {
@@ -280,7 +429,19 @@ pub fn match_images(
     };
     let (fa, fb) = (fa?, fb?);
     let t1 = Instant::now();
-    let matches = match_brute_force(&fa.descriptors, &fb.descriptors, &params.matching);
+    let matches = match (&fa.descriptors, &fb.descriptors) {
+        (Descriptors::Binary(da), Descriptors::Binary(db)) => {
+            match_brute_force(da, db, &params.matching)
+        }
+        (Descriptors::Sift(da), Descriptors::Sift(db)) => {
+            sift::match_l2_ratio(da, db, &params.sift_matching)
+        }
+        (Descriptors::Mldb(da), Descriptors::Mldb(db)) => {
+            akaze::match_mldb(da, db, &params.akaze.matching)
+        }
+        // Both images always go through the same method, so kinds never differ.
+        _ => Vec::new(),
+    };
     let t2 = Instant::now();
     let size_a = (a.width(), a.height());
     let size_b = (b.width(), b.height());
@@ -293,7 +454,17 @@ pub fn match_images(
             &matches,
             &params.gms,
         ),
-        MatchMethod::OrbBf => vec![true; matches.len()],
+        MatchMethod::OrbBf | MatchMethod::Sift => vec![true; matches.len()],
+        MatchMethod::Akaze => {
+            akaze::verify_fundamental(
+                &fa.keypoints,
+                &fb.keypoints,
+                &matches,
+                &params.akaze.fundamental,
+                params.akaze.seed,
+            )
+            .0
+        }
     };
     let t3 = Instant::now();
     let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;

@@ -545,6 +545,36 @@ mod tests {
     use crate::features::synth::textured_image;
 
     #[test]
+    fn features_are_the_same_bits_on_every_simd_level() {
+        use crate::features::simd::{Level, with_max_level};
+        // Odd sizes: row tails that are not multiples of any vector width.
+        let img = textured_image(421, 317, 9);
+        let params = OrbParams {
+            n_features: 500,
+            ..OrbParams::default()
+        };
+        let run = |level| {
+            with_max_level(level, || {
+                crate::features::detect_and_describe(&img.view(), &params)
+            })
+        };
+        let Ok(base) = run(Level::Baseline) else {
+            panic!("ORB failed on the synthetic image");
+        };
+        assert!(
+            base.keypoints.len() > 400,
+            "{} keypoints",
+            base.keypoints.len()
+        );
+        for level in [Level::Avx2, Level::Avx512] {
+            let Ok(f) = run(level) else {
+                panic!("ORB failed at {level:?}");
+            };
+            assert_eq!(f, base, "{level:?}");
+        }
+    }
+
+    #[test]
     fn harris_window_path_equals_clamped_path() {
         let img = textured_image(64, 48, 3);
         let view = img.view();

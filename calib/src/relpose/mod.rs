@@ -15,6 +15,7 @@
 //! | RGB-D: matched 3D points | [`rigid3d::estimate_rigid_ransac`] | 3-point RANSAC (MSAC) + Umeyama/Horn, then anisotropic (depth-noise weighted) Gauss-Newton/LM ([`refine::refine_rigid`]) |
 //! | RGB: matched normalised points | [`essential::estimate_essential_ransac`] | 5-point solver (Stewénius, Engels & Nistér 2006) in RANSAC with the Sampson error, cheirality by triangulation, Sampson LM on `SO(3) x S^2` ([`refine::refine_essential`]); `|t| = 1` |
 //! | 3D point sets | [`umeyama::rigid_from_correspondences`] | closed form (Umeyama 1991, Arun et al. 1987, Horn 1987) |
+//! | matched pixels (match verification) | [`fundamental::estimate_fundamental_ransac`] | normalised 8-point (Hartley 1997) in RANSAC with the Sampson distance, least-squares refit on the inliers |
 //!
 //! # Degenerate cases (refused with a [`RelPoseError`], never a garbage pose)
 //!
@@ -39,6 +40,7 @@
 
 pub mod camera;
 pub mod essential;
+pub mod fundamental;
 pub mod ransac;
 pub mod refine;
 pub mod rigid3d;
