@@ -3,7 +3,9 @@
 //! recording's images, depth and /tf only. The estimate is compared with the simulator's
 //! true mount (`/sim/camera_mount`, read here by the test, never by the pipeline): the
 //! issue's bar is < 0.02 deg and < 0.2 mm. The true mount is asymmetric (t = (60, -35, 90)
-//! mm, ~90 deg about a tilted axis), so an inverted X cannot pass.
+//! mm, ~90 deg about a tilted axis), so an inverted X cannot pass. The same recording carries
+//! the calibration stage's outputs (the same X, the camera edge switched to it), replays byte
+//! for byte on one thread, and `calib self --out` writes them into a new file.
 
 use std::path::Path;
 use std::process::Command;
@@ -98,6 +100,109 @@ fn self_calibration_on_clean_calib18_recovers_the_true_mount() {
     let text = std::fs::read_to_string(&yaml).expect("yaml");
     assert!(text.contains("direction: tool0_from_camera"));
     assert!(text.contains("camera_from_tool0"));
+
+    // The calibration stage of the record pipeline computed the same X from the same views.
+    let (stage_x, edges_after) = stage_outputs(&rec);
+    let (r, t) = calib::handeye::pose_error(&stage_x, &est);
+    assert!(r < 1e-6 && t < 1e-9, "stage vs calib self: {r} deg {t} m");
+    assert!(edges_after > 0, "the camera edge follows the calibration");
+
+    // The recording replays byte for byte, also on one worker thread.
+    let check = Command::new(env!("CARGO_BIN_EXE_rodlog"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("RAYON_NUM_THREADS", "1")
+        .args(["replay", &rec_s, "--check"])
+        .output()
+        .expect("run rodlog");
+    let stdout = String::from_utf8_lossy(&check.stdout);
+    assert!(
+        check.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&check.stderr)
+    );
+    assert!(stdout.contains("/calibration/hand_eye"), "{stdout}");
+
+    // --out: inputs + the calibration stage's outputs, the same X.
+    let out_path = tmp.path().join("out.mcap");
+    let out_s = out_path.display().to_string();
+    let run = rodlog(&["calib", "self", &rec_s, "--out", &out_s]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let (out_x, _) = stage_outputs(&out_path);
+    let (r, t) = calib::handeye::pose_error(&out_x, &est);
+    assert!(r < 1e-6 && t < 1e-9, "--out vs JSON: {r} deg {t} m");
+    let mut reader = McapReader::open(&out_path).expect("open out");
+    let images = reader
+        .read_all(&ReadFilter::all().with_topics(["/camera/color/image_raw".to_owned()]))
+        .expect("read");
+    assert_eq!(images.len(), 18, "the inputs are copied");
+    // No half-written file when --out cannot be written.
+    let bad = tmp.path().join("no_such_dir/out.mcap");
+    let run = rodlog(&["calib", "self", &rec_s, "--out", &bad.display().to_string()]);
+    assert!(!run.status.success());
+    assert!(!bad.exists());
+    assert!(
+        std::fs::read_dir(tmp.path()).expect("ls").all(|e| !e
+            .expect("entry")
+            .file_name()
+            .to_string_lossy()
+            .ends_with(".partial")),
+        "no temporary file left"
+    );
+}
+
+/// The calibration stage's `/calibration/hand_eye` X in a recording (exactly one), and how
+/// many camera edges on `/tf` (producer `calibration`) after it carry that X.
+fn stage_outputs(rec: &Path) -> (Isometry3<f64>, usize) {
+    let mut reader = McapReader::open(rec).expect("open");
+    let filter = ReadFilter::all().with_topics([
+        "/calibration/hand_eye".to_owned(),
+        "/tf".to_owned(),
+        "/rosout".to_owned(),
+    ]);
+    let msgs = reader.read_all(&filter).expect("read");
+    let mut x: Option<(u64, Isometry3<f64>)> = None;
+    let mut after = 0;
+    for m in &msgs {
+        match m.decode().expect("decode") {
+            Msg::HandEyeCalibration(c) => {
+                assert!(x.is_none(), "one calibration");
+                assert_eq!(
+                    (c.mode.as_str(), c.views, c.header.frame_id.as_str()),
+                    ("rgbd", 18, "tool0")
+                );
+                assert!(c.sigma_rot_deg > 0.0 && c.sigma_trans_mm > 0.0);
+                let iso =
+                    robot::conversions::isometry_from_msg(&c.tool0_from_camera).expect("finite");
+                x = Some((m.log_time_ns, iso));
+            }
+            Msg::TfMessage(tf) if m.channel.producer() == Some("calibration") => {
+                assert_eq!(tf.transforms.len(), 1);
+                assert_eq!(
+                    tf.transforms[0].child_frame_id,
+                    "camera_color_optical_frame"
+                );
+                if let Some((t0, xe)) = &x
+                    && m.log_time_ns > *t0
+                {
+                    let e = robot::conversions::isometry_from_msg(&tf.transforms[0].transform)
+                        .expect("finite");
+                    let (r, t) = calib::handeye::pose_error(&e, xe);
+                    assert!(r < 1e-6 && t < 1e-9);
+                    after += 1;
+                }
+            }
+            Msg::Log(l) if m.channel.producer() == Some("calibration") => {
+                assert!(l.msg.contains("accepted"), "{}", l.msg);
+            }
+            _ => {}
+        }
+    }
+    let (_, x) = x.expect("the calibration stage published /calibration/hand_eye");
+    (x, after)
 }
 
 #[test]
@@ -111,8 +216,16 @@ fn self_calibration_refuses_a_recording_without_images() {
         "{}",
         String::from_utf8_lossy(&run.stderr)
     );
-    let out = rodlog(&["calib", "self", &rec]);
+    let out_mcap = tmp.path().join("out.mcap");
+    let out = rodlog(&[
+        "calib",
+        "self",
+        &rec,
+        "--out",
+        &out_mcap.display().to_string(),
+    ]);
     assert!(!out.status.success());
     assert!(out.stdout.is_empty());
     assert!(!String::from_utf8_lossy(&out.stderr).is_empty());
+    assert!(!out_mcap.exists(), "a refusal writes no --out file");
 }

@@ -12,6 +12,7 @@
 //! | [`ik`] | closed-form IK, all 8 solutions, limits, nearest choice, singularities |
 //! | [`kinematics`] | base (planar) + lift (prismatic) + arm: every frame, mount numbers |
 //! | [`names`] | frame and joint names (DESIGN.md s3) |
+//! | [`camera_mount`] | the wrist camera's nominal mount `tool0_from_camera` |
 //! | [`urdf`] | the generated URDF |
 //! | [`tf_buffer`] | TF tree with interpolation |
 //! | [`robot_state`] | the `/joint_states` -> `/tf` stage |
@@ -45,6 +46,7 @@
 //!   `arm_base_link` is DH frame 0 and `tool0` is DH frame 6 (the flange).
 
 pub mod aubo_i10;
+pub mod camera_mount;
 pub mod conversions;
 pub mod dh;
 pub mod ik;

@@ -72,10 +72,12 @@ const OTHER_TOP: [&str; 2] = ["parameters", "command"];
 
 /// Default arm pose at t = 0 (rad): elbow up, tool pointing forward and slightly down.
 pub const DEFAULT_HOME_RAD: [f64; 6] = [0.0, 0.3, 1.9, 0.0, std::f64::consts::FRAC_PI_2, 0.0];
-/// Default true mount translation `tool0_from_camera` (m).
-pub const DEFAULT_MOUNT_XYZ_M: [f64; 3] = [0.06, -0.035, 0.09];
-/// Default true mount rotation (roll, pitch, yaw about fixed x, y, z; deg).
-pub const DEFAULT_MOUNT_RPY_DEG: [f64; 3] = [2.0, -5.0, 90.0];
+/// Default true mount translation `tool0_from_camera` (m): the robot model's nominal mount
+/// ([`robot::camera_mount::NOMINAL_MOUNT_XYZ_M`]).
+pub const DEFAULT_MOUNT_XYZ_M: [f64; 3] = robot::camera_mount::NOMINAL_MOUNT_XYZ_M;
+/// Default true mount rotation (roll, pitch, yaw about fixed x, y, z; deg): the robot model's
+/// nominal mount ([`robot::camera_mount::NOMINAL_MOUNT_RPY_DEG`]).
+pub const DEFAULT_MOUNT_RPY_DEG: [f64; 3] = robot::camera_mount::NOMINAL_MOUNT_RPY_DEG;
 
 /// Wind settings.
 #[derive(Debug, Clone, Copy, PartialEq)]

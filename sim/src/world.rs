@@ -82,14 +82,7 @@ pub const POSE_TRUTH_PERIOD_NS: u64 = 100_000_000;
 /// `tool0_from_camera` from a translation (m) and roll-pitch-yaw (deg, fixed axes x, y, z).
 #[must_use]
 pub fn mount_from_config(xyz_m: [f64; 3], rpy_deg: [f64; 3]) -> Isometry3<f64> {
-    Isometry3::from_parts(
-        Translation3::new(xyz_m[0], xyz_m[1], xyz_m[2]),
-        UnitQuaternion::from_euler_angles(
-            rpy_deg[0].to_radians(),
-            rpy_deg[1].to_radians(),
-            rpy_deg[2].to_radians(),
-        ),
-    )
+    robot::camera_mount::mount_from_xyz_rpy(xyz_m, rpy_deg)
 }
 
 /// The simulated world. See the module docs.

@@ -60,6 +60,14 @@
 //! the per-pair scales are in [`pipeline::PairReport::scale`]. The eq. 15 point refinement
 //! runs in RGB-D mode only (mono points would carry the per-pair scales).
 //!
+//! # Over the log ([`stage`])
+//!
+//! The calibration stage runs this pipeline over the message stream: it pairs every capture
+//! with the hand pose from its TF buffer, keeps the informative views, publishes
+//! `/calibration/hand_eye`, `/calibration/matches` and the camera edge on `/tf` (the nominal
+//! mount of [`robot::camera_mount`] until a calibration is accepted), and its refusals on
+//! `/rosout`.
+//!
 //! # Refusals (never a wrong X)
 //!
 //! Too few views, images of the wrong size, dark/textureless views, too few usable pairs,
@@ -72,11 +80,13 @@ pub mod motion;
 pub mod pairs;
 pub mod pipeline;
 pub mod refine;
+pub mod stage;
 pub mod views;
 pub mod yaml;
 
 pub use messages::views_from_messages;
 pub use pipeline::{SelfCalParams, SelfCalResult, self_calibrate};
+pub use stage::{CalibrationStage, CalibrationStageConfig};
 pub use views::CalibView;
 pub use yaml::{calibration_yaml, result_json};
 

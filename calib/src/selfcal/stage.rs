@@ -1,0 +1,797 @@
+//! The calibration stage (DESIGN.md s3, issue 8): hand-eye self-calibration over the message
+//! stream, and the camera edge `tool0 -> camera_color_optical_frame` on `/tf`.
+//!
+//! # Inputs and outputs
+//!
+//! | in | use |
+//! |---|---|
+//! | `/tf`, `/tf_static` | a [`TfBuffer`]: the hand pose `base_link_from_tool0` at each image stamp |
+//! | `/camera/color/camera_info` | the camera model (first message) |
+//! | `/camera/color/image_raw`, `/camera/depth/image_raw` | one capture = a colour image and the depth image of the same stamp |
+//! | `/joint_states` | the trigger of the camera edge |
+//! | `/clock` | time-outs (a capture waiting for its depth or its TF) |
+//!
+//! | out | when |
+//! |---|---|
+//! | `/tf` | with every `/joint_states` of a new stamp: the nominal mount ([`robot::camera_mount`]) until a calibration is accepted, then the accepted `tool0_from_camera`, stamped with the JointState's stamp |
+//! | `/calibration/hand_eye` | each self-calibration that succeeds (quality and 1-sigma uncertainty filled, [`hand_eye_msg`]) |
+//! | `/calibration/matches` | with it: one message per candidate view pair, its GMS inlier matches |
+//! | `/rosout` | every view skipped and every refusal, saying what to do; the acceptance |
+//!
+//! The `robot_state` stage never publishes the camera edge, so it is published exactly once
+//! per stamp, here.
+//!
+//! # Behaviour
+//!
+//! 1. A colour image waits [`CalibrationStageConfig::depth_wait`] of log time for the depth
+//!    image of the same stamp (within [`DEPTH_STAMP_TOLERANCE_NS`]); once depth has been seen
+//!    in the stream (mode `rgbd`), a colour image without depth is skipped as a stamp
+//!    mismatch, and so is a depth image without a colour image.
+//! 2. Its hand pose is looked up in the TF buffer at the image stamp; when TF has not reached
+//!    the stamp yet the capture waits up to [`CalibrationStageConfig::tf_wait`], then it is
+//!    skipped with the buffer's explanation (missing TF).
+//! 3. Informative views only: a view with fewer than [`SelfCalParams::min_features`] ORB
+//!    keypoints (dark, washed out, textureless) is skipped with its mean intensity and
+//!    contrast, and so is a view whose hand orientation is within
+//!    [`CalibrationStageConfig::min_view_rotation_deg`] of an already kept view (it adds no
+//!    rotation axis and only repeats the matches).
+//! 4. After [`CalibrationStageConfig::captures_to_solve`] captures (kept or skipped), the kept
+//!    views go to [`self_calibrate`]. A refusal goes to `/rosout` as an ERROR with its numbers
+//!    and what to do; a result is published on `/calibration/hand_eye`, and it is *accepted*
+//!    (becomes the camera edge) when its median residuals are within
+//!    [`CalibrationStageConfig::max_residual_rot_deg`] and
+//!    [`CalibrationStageConfig::max_residual_trans_mm`]. The views are then cleared: a later
+//!    batch of captures recalibrates.
+//!
+//! # Determinism
+//!
+//! Outputs depend only on the inputs and the configuration: no clock but `log_time`, views
+//! in arrival order, and [`self_calibrate`] collects its parallel work in a fixed order, so
+//! the bytes are the same whatever the thread count. Outputs are returned in a fixed order;
+//! the runner stamps them `trigger log_time + latency`.
+
+use image::GrayImage;
+use nalgebra::Isometry3;
+
+use msgs::builtin_interfaces::Time;
+use msgs::rcl_interfaces::Log;
+use msgs::rodlog_msgs::{FeatureMatches, HandEyeCalibration};
+use msgs::sensor_msgs::{CameraInfo, Image, JointState};
+use msgs::std_msgs::Header;
+use msgs::tf2_msgs::TfMessage;
+use msgs::{Msg, RobotDuration, RobotTime, RosMessage, Stage, StageError, topics};
+use robot::camera_mount::{MOUNT_CHILD_FRAME, MOUNT_PARENT_FRAME};
+use robot::conversions::{transform_msg, transform_stamped};
+use robot::names::{BASE_LINK, TOOL0};
+use robot::tf_buffer::{TfBuffer, TfError};
+
+use super::messages::{
+    DEPTH_STAMP_TOLERANCE_NS, camera_from_info, depth_from_image, gray_from_image,
+};
+use super::pairs::extract_features;
+use super::views::{CalibView, intensity_stats};
+use super::{MIN_VIEWS, SelfCalError, SelfCalParams, SelfCalResult, self_calibrate};
+use crate::relpose::CameraModel;
+
+/// Producer name of the stage (channel metadata `producer=calibration`).
+pub const STAGE_NAME: &str = "calibration";
+/// Method name written in `/calibration/hand_eye` and `/calibration/matches`.
+pub const METHOD: &str = "ours";
+/// Match method of `/calibration/matches`.
+pub const MATCH_METHOD: &str = "orb-gms";
+
+/// Configuration of the [`CalibrationStage`]. Every default is documented on its field.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibrationStageConfig {
+    /// Output latency added to the trigger's log time. Default 5 ms.
+    pub latency: RobotDuration,
+    /// The camera edge published until a calibration is accepted. Default the robot model's
+    /// nominal mount ([`robot::camera_mount::nominal_tool0_from_camera`]).
+    pub nominal_tool0_from_camera: Isometry3<f64>,
+    /// Parent frame of the hand pose. Default `base_link`.
+    pub hand_parent_frame: String,
+    /// Child frame of the hand pose. Default `tool0`.
+    pub hand_child_frame: String,
+    /// Captures (kept or skipped) after which the kept views are calibrated; 0 never
+    /// calibrates (the stage then only publishes the camera edge). Default 18 (the `calib-18`
+    /// motion).
+    pub captures_to_solve: usize,
+    /// A view whose hand orientation is within this angle of a kept view's is skipped
+    /// (deg). Default 1.
+    pub min_view_rotation_deg: f64,
+    /// A result is accepted (becomes the camera edge) when its median rotation residual over
+    /// the pairs is at most this (deg). Default 0.5.
+    pub max_residual_rot_deg: f64,
+    /// ... and its median translation residual at most this (mm). Default 5.
+    pub max_residual_trans_mm: f64,
+    /// Longest wait for the depth image of a colour image's stamp (log time). Default 200 ms.
+    pub depth_wait: RobotDuration,
+    /// Longest wait for TF to reach an image stamp (log time). Default 2 s.
+    pub tf_wait: RobotDuration,
+    /// History of the TF buffer (ns). Default 10 s.
+    pub tf_history_ns: u64,
+    /// Ignore depth images: monocular calibration. Default false.
+    pub ignore_depth: bool,
+    /// RANSAC seed of [`SelfCalParams`]. Default [`SelfCalParams::default`]'s.
+    pub seed: u64,
+}
+
+impl Default for CalibrationStageConfig {
+    fn default() -> Self {
+        Self {
+            latency: RobotDuration::from_millis(5),
+            nominal_tool0_from_camera: robot::camera_mount::nominal_tool0_from_camera(),
+            hand_parent_frame: BASE_LINK.to_owned(),
+            hand_child_frame: TOOL0.to_owned(),
+            captures_to_solve: 18,
+            min_view_rotation_deg: 1.0,
+            max_residual_rot_deg: 0.5,
+            max_residual_trans_mm: 5.0,
+            depth_wait: RobotDuration::from_millis(200),
+            tf_wait: RobotDuration::from_secs(2),
+            tf_history_ns: 10_000_000_000,
+            ignore_depth: false,
+            seed: SelfCalParams::default().seed,
+        }
+    }
+}
+
+/// A colour image waiting for its depth or its TF.
+#[derive(Debug, Clone)]
+struct Pending {
+    log_time: RobotTime,
+    stamp_ns: u64,
+    gray: GrayImage,
+    depth_m: Option<Vec<f32>>,
+}
+
+/// The calibration stage (module docs).
+#[derive(Debug, Clone)]
+pub struct CalibrationStage {
+    config: CalibrationStageConfig,
+    tf: TfBuffer,
+    camera: Option<CameraModel>,
+    pending: Vec<Pending>,
+    /// Depth images not yet paired: `(log_time, stamp_ns, depth)`.
+    depth: Vec<(RobotTime, u64, Vec<f32>)>,
+    /// Depth has been seen in the stream (mode rgbd).
+    depth_seen: bool,
+    views: Vec<CalibView>,
+    captures: usize,
+    tool0_from_camera: Isometry3<f64>,
+    last_edge_stamp: Option<u64>,
+    accepted: usize,
+}
+
+impl CalibrationStage {
+    /// A stage with `config`.
+    #[must_use]
+    pub fn new(config: CalibrationStageConfig) -> Self {
+        Self {
+            tf: TfBuffer::new(config.tf_history_ns),
+            tool0_from_camera: config.nominal_tool0_from_camera,
+            config,
+            camera: None,
+            pending: Vec::new(),
+            depth: Vec::new(),
+            depth_seen: false,
+            views: Vec::new(),
+            captures: 0,
+            last_edge_stamp: None,
+            accepted: 0,
+        }
+    }
+
+    /// The camera edge it publishes now (nominal until a calibration is accepted).
+    #[must_use]
+    pub fn tool0_from_camera(&self) -> &Isometry3<f64> {
+        &self.tool0_from_camera
+    }
+
+    /// Calibrations accepted so far.
+    #[must_use]
+    pub fn accepted(&self) -> usize {
+        self.accepted
+    }
+
+    /// Views kept for the next calibration.
+    #[must_use]
+    pub fn views(&self) -> usize {
+        self.views.len()
+    }
+
+    fn log(level: u8, log_time: RobotTime, text: String) -> (String, Msg) {
+        (
+            topics::ROSOUT.to_owned(),
+            Msg::Log(Log {
+                stamp: log_time.to_ros().unwrap_or_default(),
+                level,
+                name: STAGE_NAME.to_owned(),
+                msg: text,
+                file: String::new(),
+                function: String::new(),
+                line: 0,
+            }),
+        )
+    }
+
+    fn invalid(topic: &str, log_time: RobotTime, reason: String) -> StageError {
+        StageError::InvalidInput {
+            stage: STAGE_NAME.to_owned(),
+            topic: topic.to_owned(),
+            log_time,
+            reason,
+        }
+    }
+
+    fn stamp_of(topic: &str, log_time: RobotTime, t: Time) -> Result<u64, StageError> {
+        RobotTime::from_ros(t)
+            .map(RobotTime::as_nanos)
+            .map_err(|e| Self::invalid(topic, log_time, format!("invalid stamp: {e}")))
+    }
+
+    fn on_joint_states(
+        &mut self,
+        log_time: RobotTime,
+        js: &JointState,
+        out: &mut Vec<(String, Msg)>,
+    ) -> Result<(), StageError> {
+        let stamp = Self::stamp_of(topics::JOINT_STATES, log_time, js.header.stamp)?;
+        if self.last_edge_stamp.is_some_and(|s| s >= stamp) {
+            return Ok(());
+        }
+        self.last_edge_stamp = Some(stamp);
+        let edge = transform_stamped(
+            MOUNT_PARENT_FRAME,
+            MOUNT_CHILD_FRAME,
+            js.header.stamp,
+            &self.tool0_from_camera,
+        );
+        out.push((
+            topics::TF.to_owned(),
+            Msg::TfMessage(TfMessage {
+                transforms: vec![edge],
+            }),
+        ));
+        Ok(())
+    }
+
+    fn on_colour(
+        &mut self,
+        log_time: RobotTime,
+        img: &Image,
+        out: &mut Vec<(String, Msg)>,
+    ) -> Result<(), StageError> {
+        if self.config.captures_to_solve == 0 {
+            return Ok(());
+        }
+        let topic = topics::CAMERA_COLOR_IMAGE;
+        let stamp_ns = Self::stamp_of(topic, log_time, img.header.stamp)?;
+        let gray = match gray_from_image(topic, stamp_ns, img) {
+            Ok(g) => g,
+            Err(e) => {
+                self.captures += 1;
+                out.push(Self::log(
+                    Log::WARN,
+                    log_time,
+                    format!("capture at {stamp_ns} ns skipped: {e}"),
+                ));
+                return Ok(());
+            }
+        };
+        self.pending.push(Pending {
+            log_time,
+            stamp_ns,
+            gray,
+            depth_m: None,
+        });
+        Ok(())
+    }
+
+    fn on_depth(
+        &mut self,
+        log_time: RobotTime,
+        img: &Image,
+        out: &mut Vec<(String, Msg)>,
+    ) -> Result<(), StageError> {
+        if self.config.ignore_depth || self.config.captures_to_solve == 0 {
+            return Ok(());
+        }
+        let topic = topics::CAMERA_DEPTH_IMAGE;
+        let stamp_ns = Self::stamp_of(topic, log_time, img.header.stamp)?;
+        self.depth_seen = true;
+        match depth_from_image(topic, stamp_ns, img) {
+            Ok(d) => self.depth.push((log_time, stamp_ns, d)),
+            Err(e) => out.push(Self::log(
+                Log::WARN,
+                log_time,
+                format!("depth image at {stamp_ns} ns ignored: {e}"),
+            )),
+        }
+        Ok(())
+    }
+
+    /// Pairs pending colour images with depth, resolves their hand poses, keeps or skips
+    /// them (steps 1-3 of the module docs).
+    fn advance(&mut self, log_time: RobotTime, out: &mut Vec<(String, Msg)>) {
+        // 1. Depth pairing.
+        for p in &mut self.pending {
+            if p.depth_m.is_some() {
+                continue;
+            }
+            let best = self
+                .depth
+                .iter()
+                .enumerate()
+                .filter(|(_, d)| d.1.abs_diff(p.stamp_ns) <= DEPTH_STAMP_TOLERANCE_NS)
+                .min_by_key(|(k, d)| (d.1.abs_diff(p.stamp_ns), *k))
+                .map(|(k, _)| k);
+            if let Some(k) = best {
+                p.depth_m = Some(self.depth.remove(k).2);
+            }
+        }
+        // Depth images nobody claimed within the wait: a stamp mismatch.
+        let wait = self.config.depth_wait;
+        let mut kept_depth = Vec::with_capacity(self.depth.len());
+        for d in std::mem::take(&mut self.depth) {
+            if log_time.saturating_duration_since(d.0) > wait {
+                let nearest = self
+                    .pending
+                    .iter()
+                    .map(|p| p.stamp_ns)
+                    .chain(self.views.iter().map(|v| v.stamp_ns))
+                    .min_by_key(|s| s.abs_diff(d.1));
+                out.push(Self::log(
+                    Log::WARN,
+                    log_time,
+                    format!(
+                        "depth image at {} ns has no colour image within {} ns (nearest colour stamp {:?} ns): ignored; the camera driver must stamp colour and registered depth with the same capture time",
+                        d.1, DEPTH_STAMP_TOLERANCE_NS, nearest
+                    ),
+                ));
+            } else {
+                kept_depth.push(d);
+            }
+        }
+        self.depth = kept_depth;
+
+        // 2. Finalise the captures whose depth is in (or whose wait is over).
+        let mut still = Vec::with_capacity(self.pending.len());
+        for p in std::mem::take(&mut self.pending) {
+            let waited = log_time.saturating_duration_since(p.log_time);
+            let depth_ready = p.depth_m.is_some() || waited > wait;
+            if !depth_ready {
+                still.push(p);
+                continue;
+            }
+            if p.depth_m.is_none() && self.depth_seen {
+                self.captures += 1;
+                out.push(Self::log(
+                    Log::WARN,
+                    log_time,
+                    format!(
+                        "capture at {} ns skipped: no depth image within {} ns of its stamp (the stream has depth): colour and depth must carry the same capture stamp",
+                        p.stamp_ns, DEPTH_STAMP_TOLERANCE_NS
+                    ),
+                ));
+                continue;
+            }
+            match self.hand_pose(p.stamp_ns) {
+                Ok(pose) => {
+                    self.captures += 1;
+                    self.keep_or_skip(log_time, p, pose, out);
+                }
+                Err(e) => {
+                    let tf_ahead = matches!(&e, TfError::Extrapolation { newest_ns, .. } if *newest_ns < p.stamp_ns)
+                        || matches!(&e, TfError::UnknownFrame { .. });
+                    if tf_ahead && waited <= self.config.tf_wait {
+                        still.push(p);
+                        continue;
+                    }
+                    self.captures += 1;
+                    out.push(Self::log(
+                        Log::WARN,
+                        log_time,
+                        format!(
+                            "capture at {} ns skipped: no hand pose {} -> {} at its stamp: {e}; check that the arm's /joint_states and /tf cover the capture time",
+                            p.stamp_ns, self.config.hand_parent_frame, self.config.hand_child_frame
+                        ),
+                    ));
+                }
+            }
+        }
+        self.pending = still;
+    }
+
+    /// Step 4 of the module docs: enough captures and none still waiting -> calibrate, then
+    /// start a new batch.
+    fn maybe_calibrate(&mut self, log_time: RobotTime, out: &mut Vec<(String, Msg)>) {
+        let n = self.config.captures_to_solve;
+        if n > 0 && self.captures >= n && self.pending.is_empty() {
+            self.calibrate(log_time, out);
+            self.captures = 0;
+            self.views.clear();
+        }
+    }
+
+    fn hand_pose(&self, stamp_ns: u64) -> Result<Isometry3<f64>, TfError> {
+        self.tf.lookup(
+            &self.config.hand_parent_frame,
+            &self.config.hand_child_frame,
+            stamp_ns,
+        )
+    }
+
+    fn selfcal_params(&self, camera: &CameraModel) -> SelfCalParams {
+        let mut p = SelfCalParams::for_camera(camera);
+        p.seed = self.config.seed;
+        p
+    }
+
+    fn keep_or_skip(
+        &mut self,
+        log_time: RobotTime,
+        p: Pending,
+        base_from_tool0: Isometry3<f64>,
+        out: &mut Vec<(String, Msg)>,
+    ) {
+        let stamp_ns = p.stamp_ns;
+        let Some(camera) = self.camera else {
+            out.push(Self::log(
+                Log::WARN,
+                log_time,
+                format!(
+                    "capture at {stamp_ns} ns skipped: no camera_info on {} yet (the camera driver publishes it with the images)",
+                    topics::CAMERA_COLOR_INFO
+                ),
+            ));
+            return;
+        };
+        if p.gray.dimensions() != (camera.width, camera.height) {
+            out.push(Self::log(
+                Log::WARN,
+                log_time,
+                format!(
+                    "capture at {stamp_ns} ns skipped: image {}x{}, camera_info says {}x{}",
+                    p.gray.width(),
+                    p.gray.height(),
+                    camera.width,
+                    camera.height
+                ),
+            ));
+            return;
+        }
+        // Rotation spread: the nearest kept orientation.
+        let nearest = self
+            .views
+            .iter()
+            .enumerate()
+            .map(|(k, v)| {
+                (
+                    k,
+                    v.base_from_tool0
+                        .rotation
+                        .angle_to(&base_from_tool0.rotation)
+                        .to_degrees(),
+                )
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((k, deg)) = nearest
+            && deg < self.config.min_view_rotation_deg
+        {
+            out.push(Self::log(
+                Log::WARN,
+                log_time,
+                format!(
+                    "capture at {stamp_ns} ns skipped: hand orientation only {deg:.3} deg from kept view {k} (< {} deg), it adds no rotation axis; rotate the wrist more between captures",
+                    self.config.min_view_rotation_deg
+                ),
+            ));
+            return;
+        }
+        let view = CalibView {
+            stamp_ns,
+            gray: p.gray,
+            depth_m: p.depth_m,
+            base_from_tool0,
+        };
+        // Enough features (dark, washed out, textureless views are useless).
+        let params = self.selfcal_params(&camera);
+        match extract_features(std::slice::from_ref(&view), &params) {
+            Ok(_) => {}
+            Err(SelfCalError::TooFewFeatures { features, need, .. }) => {
+                let (mean, contrast) = intensity_stats(&view.gray);
+                out.push(Self::log(
+                    Log::WARN,
+                    log_time,
+                    format!(
+                        "capture at {stamp_ns} ns skipped: only {features} ORB features (need {need}); mean intensity {mean:.1}/255, contrast {contrast:.1}: too dark, washed out or textureless; add light or point the camera at a textured surface"
+                    ),
+                ));
+                return;
+            }
+            Err(e) => {
+                out.push(Self::log(
+                    Log::WARN,
+                    log_time,
+                    format!("capture at {stamp_ns} ns skipped: {e}"),
+                ));
+                return;
+            }
+        }
+        self.views.push(view);
+    }
+
+    fn calibrate(&mut self, log_time: RobotTime, out: &mut Vec<(String, Msg)>) {
+        let kept = self.views.len();
+        let captures = self.captures;
+        let Some(camera) = self.camera else {
+            out.push(Self::log(
+                Log::ERROR,
+                log_time,
+                format!(
+                    "self-calibration refused: no camera_info on {} (intrinsics are needed)",
+                    topics::CAMERA_COLOR_INFO
+                ),
+            ));
+            return;
+        };
+        if kept < MIN_VIEWS {
+            out.push(Self::log(
+                Log::ERROR,
+                log_time,
+                format!(
+                    "self-calibration refused: too few views: {kept} of {captures} captures kept, need at least {MIN_VIEWS}; capture more views with varied wrist rotations of a textured, lit scene (see the skipped captures above)"
+                ),
+            ));
+            return;
+        }
+        let params = self.selfcal_params(&camera);
+        let result = match self_calibrate(&self.views, &camera, &params) {
+            Ok(r) => r,
+            Err(e) => {
+                out.push(Self::log(
+                    Log::ERROR,
+                    log_time,
+                    format!(
+                        "self-calibration refused ({kept} views of {captures} captures): {e}; the camera edge stays {}",
+                        if self.accepted > 0 {
+                            "the last accepted calibration"
+                        } else {
+                            "the nominal mount"
+                        }
+                    ),
+                ));
+                return;
+            }
+        };
+        let stamp = (log_time + self.config.latency)
+            .to_ros()
+            .unwrap_or_default();
+        for m in matches_msgs(&result, &self.views, stamp) {
+            out.push((
+                topics::CALIBRATION_MATCHES.to_owned(),
+                Msg::FeatureMatches(m),
+            ));
+        }
+        out.push((
+            topics::CALIBRATION_HAND_EYE.to_owned(),
+            Msg::HandEyeCalibration(hand_eye_msg(&result, stamp)),
+        ));
+        let s = &result.solution;
+        let ok = s.residual_rot_deg <= self.config.max_residual_rot_deg
+            && s.residual_trans_mm <= self.config.max_residual_trans_mm;
+        let t = s.tool0_from_camera.translation.vector * 1e3;
+        if ok {
+            self.tool0_from_camera = s.tool0_from_camera;
+            self.accepted += 1;
+            out.push(Self::log(
+                Log::INFO,
+                log_time,
+                format!(
+                    "self-calibration accepted ({}, {} views, {} pairs): tool0_from_camera t = [{:.2}, {:.2}, {:.2}] mm, {:.3} deg; residual {:.4} deg / {:.3} mm, sigma {:.4} deg / {:.3} mm; now the camera edge",
+                    result.mode.name(),
+                    s.views,
+                    s.pairs,
+                    t.x,
+                    t.y,
+                    t.z,
+                    s.tool0_from_camera.rotation.angle().to_degrees(),
+                    s.residual_rot_deg,
+                    s.residual_trans_mm,
+                    s.sigma_rot_deg,
+                    s.sigma_trans_mm
+                ),
+            ));
+        } else {
+            out.push(Self::log(
+                Log::WARN,
+                log_time,
+                format!(
+                    "self-calibration not accepted: median residual {:.4} deg / {:.3} mm above the limits {} deg / {} mm (the hand poses and the images disagree: a mount that moved during the captures, a bad scene); the camera edge is unchanged; recapture",
+                    s.residual_rot_deg,
+                    s.residual_trans_mm,
+                    self.config.max_residual_rot_deg,
+                    self.config.max_residual_trans_mm
+                ),
+            ));
+        }
+    }
+}
+
+/// The `/calibration/hand_eye` message of a result, stamped `stamp`: `frame_id` `tool0`,
+/// child `camera_color_optical_frame`, X = `tool0_from_camera`, the medians of the pair
+/// residuals, the 1-sigma uncertainty, the conditioning and the scale.
+#[must_use]
+pub fn hand_eye_msg(result: &SelfCalResult, stamp: Time) -> HandEyeCalibration {
+    let s = &result.solution;
+    HandEyeCalibration {
+        header: Header {
+            stamp,
+            frame_id: MOUNT_PARENT_FRAME.to_owned(),
+        },
+        child_frame_id: MOUNT_CHILD_FRAME.to_owned(),
+        tool0_from_camera: transform_msg(&s.tool0_from_camera),
+        method: METHOD.to_owned(),
+        mode: result.mode.name().to_owned(),
+        views: u32::try_from(s.views).unwrap_or(u32::MAX),
+        pairs: u32::try_from(s.pairs).unwrap_or(u32::MAX),
+        residual_rot_deg: s.residual_rot_deg,
+        residual_trans_mm: s.residual_trans_mm,
+        sigma_rot_deg: s.sigma_rot_deg,
+        sigma_trans_mm: s.sigma_trans_mm,
+        condition: s.condition,
+        scale: s.scale,
+    }
+}
+
+/// One `/calibration/matches` message per candidate pair of `result` (in pair order): the GMS
+/// inliers as keypoints `a` (view `i`) and `b` (view `j`) in full-size pixels, pairs
+/// `(k, k)`, every flag `true` (they passed GMS).
+#[must_use]
+pub fn matches_msgs(
+    result: &SelfCalResult,
+    views: &[CalibView],
+    stamp: Time,
+) -> Vec<FeatureMatches> {
+    let view_stamp = |i: usize| {
+        views
+            .get(i)
+            .and_then(|v| RobotTime::from_nanos(v.stamp_ns).to_ros().ok())
+            .unwrap_or_default()
+    };
+    result
+        .matches
+        .iter()
+        .map(|m| {
+            let n = m.coords.len();
+            let mut keypoints_a = Vec::with_capacity(2 * n);
+            let mut keypoints_b = Vec::with_capacity(2 * n);
+            let mut pairs = Vec::with_capacity(2 * n);
+            for (k, c) in m.coords.iter().enumerate() {
+                keypoints_a.extend_from_slice(&[c[0], c[1]]);
+                keypoints_b.extend_from_slice(&[c[2], c[3]]);
+                let k = u32::try_from(k).unwrap_or(u32::MAX);
+                pairs.extend_from_slice(&[k, k]);
+            }
+            FeatureMatches {
+                header: Header {
+                    stamp,
+                    frame_id: MOUNT_CHILD_FRAME.to_owned(),
+                },
+                stamp_a: view_stamp(m.i),
+                stamp_b: view_stamp(m.j),
+                method: MATCH_METHOD.to_owned(),
+                keypoints_a,
+                keypoints_b,
+                pairs,
+                inlier: vec![true; n],
+            }
+        })
+        .collect()
+}
+
+impl Stage for CalibrationStage {
+    fn name(&self) -> &str {
+        STAGE_NAME
+    }
+
+    fn inputs(&self) -> Vec<String> {
+        [
+            topics::TF,
+            topics::TF_STATIC,
+            topics::JOINT_STATES,
+            topics::CAMERA_COLOR_INFO,
+            topics::CAMERA_COLOR_IMAGE,
+            topics::CAMERA_DEPTH_IMAGE,
+            topics::CLOCK,
+        ]
+        .iter()
+        .map(|t| (*t).to_owned())
+        .collect()
+    }
+
+    fn outputs(&self) -> Vec<(String, &'static str)> {
+        vec![
+            (topics::TF.to_owned(), TfMessage::TYPE_NAME),
+            (
+                topics::CALIBRATION_MATCHES.to_owned(),
+                FeatureMatches::TYPE_NAME,
+            ),
+            (
+                topics::CALIBRATION_HAND_EYE.to_owned(),
+                HandEyeCalibration::TYPE_NAME,
+            ),
+            (topics::ROSOUT.to_owned(), Log::TYPE_NAME),
+        ]
+    }
+
+    fn latency(&self) -> RobotDuration {
+        self.config.latency
+    }
+
+    fn on_message(
+        &mut self,
+        log_time: RobotTime,
+        topic: &str,
+        msg: &Msg,
+    ) -> Result<Vec<(String, Msg)>, StageError> {
+        let mut out = Vec::new();
+        let unexpected = |expected: &'static str| StageError::UnexpectedType {
+            stage: STAGE_NAME.to_owned(),
+            topic: topic.to_owned(),
+            log_time,
+            expected,
+            got: msg.type_name(),
+        };
+        match topic {
+            topics::TF | topics::TF_STATIC => {
+                let Msg::TfMessage(m) = msg else {
+                    return Err(unexpected(TfMessage::TYPE_NAME));
+                };
+                // Our own camera edge is never fed back; rejected samples (duplicates, too
+                // old) only matter if a capture needs them, and then its lookup explains.
+                let _rejected = self.tf.insert_message(m, topic == topics::TF_STATIC);
+            }
+            topics::JOINT_STATES => {
+                let Msg::JointState(js) = msg else {
+                    return Err(unexpected(JointState::TYPE_NAME));
+                };
+                self.on_joint_states(log_time, js, &mut out)?;
+            }
+            topics::CAMERA_COLOR_INFO => {
+                let Msg::CameraInfo(info) = msg else {
+                    return Err(unexpected(CameraInfo::TYPE_NAME));
+                };
+                if self.camera.is_none() {
+                    match camera_from_info(info) {
+                        Ok(c) => self.camera = Some(c),
+                        Err(e) => out.push(Self::log(
+                            Log::WARN,
+                            log_time,
+                            format!("{}: {e}", topics::CAMERA_COLOR_INFO),
+                        )),
+                    }
+                }
+            }
+            topics::CAMERA_COLOR_IMAGE => {
+                let Msg::Image(img) = msg else {
+                    return Err(unexpected(Image::TYPE_NAME));
+                };
+                self.on_colour(log_time, img, &mut out)?;
+            }
+            topics::CAMERA_DEPTH_IMAGE => {
+                let Msg::Image(img) = msg else {
+                    return Err(unexpected(Image::TYPE_NAME));
+                };
+                self.on_depth(log_time, img, &mut out)?;
+            }
+            _ => {}
+        }
+        if !(self.pending.is_empty() && self.depth.is_empty()) {
+            self.advance(log_time, &mut out);
+        }
+        self.maybe_calibrate(log_time, &mut out);
+        Ok(out)
+    }
+}
