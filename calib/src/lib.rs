@@ -5,3 +5,4 @@ pub mod features;
 pub mod handeye;
 pub mod relpose;
 pub mod selfcal;
+pub mod zhi;
