@@ -89,10 +89,17 @@ pub const DAYLIGHT: Condition = Condition {
     hours: (11.0, 11.0),
     washout: None,
 };
-/// Dusk, 18:00-18:36.
-pub const DUSK: Condition = Condition {
-    name: "dusk 18.0-18.6",
-    hours: (18.0, 18.6),
+/// Sunset, 18:00: ~400 lx (DESIGN.md s6; `sim::render::light`).
+pub const DUSK_400LX: Condition = Condition {
+    name: "dusk 18:00 (400 lx)",
+    hours: (18.0, 18.0),
+    washout: None,
+};
+/// End of civil twilight: sun 6 deg below the horizon at hour
+/// `6 + 12 (1 + asin(6/62) / pi)` = 18.37, ~3 lx.
+pub const DUSK_3LX: Condition = Condition {
+    name: "dusk 18:22 (3 lx)",
+    hours: (18.37, 18.37),
     washout: None,
 };
 /// Strong sun (depth wash-out), 12:00-13:00.
@@ -545,7 +552,7 @@ fn main() -> anyhow::Result<()> {
     let scenes: u64 = args.next().map_or(Ok(100), |a| a.parse())?;
     let scale: f64 = args.next().map_or(Ok(1.0), |a| a.parse())?;
     let conditions: &[Condition] = match args.next().as_deref() {
-        None | Some("all") => &[DAYLIGHT, DUSK, STRONG_SUN, HARSH_SUN],
+        None | Some("all") => &[DAYLIGHT, DUSK_400LX, DUSK_3LX, STRONG_SUN, HARSH_SUN],
         Some("handle") => &[],
         Some(other) => anyhow::bail!("unknown part {other:?} (all | handle)"),
     };

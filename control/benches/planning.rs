@@ -1,5 +1,7 @@
 //! Planning: a 0.15 m Cartesian approach (IK pre-sampling, timing, sampling) turned into a
-//! `JointTrajectory` and checked; A* on a 200x200 substation grid (inflated).
+//! `JointTrajectory` and checked; a joint-space plan to a tool0 goal (IK, trapezoids, collision
+//! check of every second sample against the platform and itself) and the log checker on its
+//! command; A* on a 200x200 substation grid (inflated).
 
 use std::hint::black_box;
 
@@ -27,6 +29,46 @@ fn planning(c: &mut Criterion) {
             };
             let msg = to_joint_trajectory(&plan.trajectory, &ARM_JOINT_NAMES, Header::default());
             check_trajectory(&msg, &limits).is_ok()
+        })
+    });
+    let arm = control::motion::collision::ArmCollisionModel::nominal();
+    let world = control::motion::collision::CollisionWorld::robot_body(&arm.model, 1.0);
+    let q_goal = [0.6, 0.2, 1.4, 0.3, 1.3, 0.4];
+    let tool0_goal = arm.model.base_from_tool0(1.0, &q_goal);
+    c.bench_function("plan_to_tool0+collision(self,platform)", |b| {
+        b.iter(|| {
+            control::motion::planner::plan_to_tool0(
+                &arm,
+                &ik,
+                &world,
+                1.0,
+                black_box(&q_start),
+                black_box(&tool0_goal),
+                10_000_000,
+            )
+            .is_ok()
+        })
+    });
+    let Ok(plan) = control::motion::planner::plan_to_tool0(
+        &arm,
+        &ik,
+        &world,
+        1.0,
+        &q_start,
+        &tool0_goal,
+        10_000_000,
+    ) else {
+        panic!("plan");
+    };
+    let command: msgs::Msg =
+        control::motion::planner::plan_trajectory_msg(&plan, Header::default()).into();
+    c.bench_function("motion_checker/one_command", |b| {
+        b.iter(|| {
+            let mut checker = control::motion::checker::MotionChecker::new(
+                control::motion::checker::CheckerParams::default(),
+            );
+            checker.feed(0, msgs::topics::ARM_JOINT_TRAJECTORY, black_box(&command));
+            checker.finish().passed()
         })
     });
     let mut grid = OccupancyGrid::free(200, 200, 0.1, (0.0, 0.0));

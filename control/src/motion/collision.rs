@@ -15,8 +15,17 @@
 //! (each AUBO row has either `d` or `a` non-zero, so each segment runs along the real link),
 //! with radii [`ARM_LINK_RADII_M`]; the tool capsule runs from tool0 along its z axis
 //! (the clamp and the held rod). The base link (arm base to shoulder) sits on the lift and is
-//! not checked against the platform it is bolted to; no self-collision check (the AUBO's
-//! joint limits and the planned poses keep the links apart; a later addition).
+//! not checked against the platform it is bolted to.
+//!
+//! # The robot's own body and self-collision
+//! [`CollisionWorld::robot_body`] holds the chassis, the lift mast (growing with the lift) and
+//! the lift plate as boxes in `base_link` (the URDF's outline, `robot::urdf`), so the arm is
+//! checked against the platform it stands on. Self-collision checks the link pairs of
+//! [`SELF_COLLISION_PAIRS`]: every pair that is not adjacent and not in the wrist cluster.
+//! Excluded, as an SRDF's "adjacent"/"never" lists do: consecutive links (they share a joint),
+//! and wrist 1 - wrist 3 and wrist 2 - tool, which are one short link (0.1025 m, 0.094 m)
+//! apart with radii summing to more than that length, so their capsules always overlap
+//! whatever the joints; the real wrist housings are shaped to clear each other.
 
 use super::MotionError;
 use nalgebra::{Isometry3, Point3, Vector3};
@@ -35,6 +44,32 @@ pub const ARM_LINK_NAMES: [&str; 7] = [
     "arm_wrist3_link",
     "tool",
 ];
+
+/// Link pairs (indices into [`ARM_LINK_NAMES`]) checked for self-collision (module docs).
+pub const SELF_COLLISION_PAIRS: [(usize, usize); 13] = [
+    (0, 2),
+    (0, 3),
+    (0, 4),
+    (0, 5),
+    (0, 6),
+    (1, 3),
+    (1, 4),
+    (1, 5),
+    (1, 6),
+    (2, 4),
+    (2, 5),
+    (2, 6),
+    (3, 6),
+];
+
+/// Chassis outline in `base_link` (m): 1.2 x 0.8, from 0.1 to 0.45 m high (`robot::urdf`).
+pub const CHASSIS_HALF_EXTENTS_M: [f64; 3] = [0.6, 0.4, 0.175];
+/// Chassis box centre height in `base_link` (m).
+pub const CHASSIS_CENTRE_Z_M: f64 = 0.275;
+/// Lift mast half width (m): a 0.22 m square column from the chassis top to the lift plate.
+pub const LIFT_MAST_HALF_WIDTH_M: f64 = 0.11;
+/// Lift plate half extents (m): 0.4 x 0.4 x 0.03 below `lift_link`.
+pub const LIFT_PLATE_HALF_EXTENTS_M: [f64; 3] = [0.2, 0.2, 0.015];
 
 /// A capsule: segment `a-b` swept by a sphere of radius `radius_m`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -148,6 +183,48 @@ pub struct CollisionWorld {
     pub capsules: Vec<(String, Capsule)>,
 }
 
+impl CollisionWorld {
+    /// The robot's own platform in `base_link` at lift height `lift_m`: `chassis`,
+    /// `lift_mast` (chassis top to the lift plate) and `lift_plate` (module docs).
+    #[must_use]
+    pub fn robot_body(model: &RobotModel, lift_m: f64) -> Self {
+        let chassis = OrientedBox {
+            frame_from_box: Isometry3::translation(0.0, 0.0, CHASSIS_CENTRE_Z_M),
+            half_extents_m: Vector3::from(CHASSIS_HALF_EXTENTS_M),
+        };
+        let base_from_lift = model.base_from_lift(lift_m);
+        let plate_top = base_from_lift * Point3::origin();
+        let chassis_top = CHASSIS_CENTRE_Z_M + CHASSIS_HALF_EXTENTS_M[2];
+        let plate_bottom_z = plate_top.z - 2.0 * LIFT_PLATE_HALF_EXTENTS_M[2];
+        let mast_half_height = (0.5 * (plate_bottom_z - chassis_top)).max(0.0);
+        let mast = OrientedBox {
+            frame_from_box: Isometry3::translation(
+                plate_top.x,
+                plate_top.y,
+                chassis_top + mast_half_height,
+            ),
+            half_extents_m: Vector3::new(
+                LIFT_MAST_HALF_WIDTH_M,
+                LIFT_MAST_HALF_WIDTH_M,
+                mast_half_height,
+            ),
+        };
+        let plate = OrientedBox {
+            frame_from_box: base_from_lift
+                * Isometry3::translation(0.0, 0.0, -LIFT_PLATE_HALF_EXTENTS_M[2]),
+            half_extents_m: Vector3::from(LIFT_PLATE_HALF_EXTENTS_M),
+        };
+        Self {
+            boxes: vec![
+                ("chassis".to_owned(), chassis),
+                ("lift_mast".to_owned(), mast),
+                ("lift_plate".to_owned(), plate),
+            ],
+            capsules: Vec::new(),
+        }
+    }
+}
+
 /// The arm's capsule model.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ArmCollisionModel {
@@ -232,6 +309,12 @@ impl ArmCollisionModel {
                 }
             }
         }
+        for &(i, j) in &SELF_COLLISION_PAIRS {
+            let c = capsule_capsule(&capsules[i], &capsules[j]);
+            if c < best.0 {
+                best = (c, ARM_LINK_NAMES[i], ARM_LINK_NAMES[j].to_owned());
+            }
+        }
         best
     }
 
@@ -264,5 +347,58 @@ impl ArmCollisionModel {
             min_clearance = min_clearance.min(clearance);
         }
         Ok(min_clearance)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn working_poses_are_free_and_a_folded_arm_collides_with_itself() {
+        let arm = ArmCollisionModel::nominal();
+        let world = CollisionWorld::robot_body(&arm.model, 1.0);
+        for q in [
+            [0.0, 0.3, 1.6, 0.2, 1.4, 0.0],
+            [-0.45, 0.3, 1.6, 0.2, 1.4, -0.45],
+            [-1.2, 0.2, 1.7, 0.0, -1.2, 0.0],
+        ] {
+            let (c, link, other) = arm.clearance(&world, 1.0, &q);
+            assert!(c > arm.margin_m, "{q:?}: {link} vs {other} at {c} m");
+        }
+        // Elbow folded to 170 deg: the forearm lies on the upper arm, the wrist on the
+        // shoulder column.
+        let folded = [0.0, 0.0, 170f64.to_radians(), 0.0, 0.0, 0.0];
+        let no_obstacles = CollisionWorld::default();
+        let (c, link, other) = arm.clearance(&no_obstacles, 1.0, &folded);
+        assert!(c < 0.0, "folded arm: {link} vs {other} at {c} m");
+        assert!(
+            SELF_COLLISION_PAIRS
+                .iter()
+                .any(|&(i, j)| ARM_LINK_NAMES[i] == link && ARM_LINK_NAMES[j] == other),
+            "{link} vs {other} is not a self-collision pair"
+        );
+    }
+
+    #[test]
+    fn a_forearm_hanging_beside_the_lowered_platform_hits_the_chassis() {
+        let arm = ArmCollisionModel::nominal();
+        let world = CollisionWorld::robot_body(&arm.model, 0.0);
+        // Upper arm horizontal, forearm hanging down beside the chassis edge (x = 0.6 m).
+        let q = [
+            0.0,
+            -std::f64::consts::FRAC_PI_2,
+            std::f64::consts::FRAC_PI_2,
+            0.0,
+            0.0,
+            0.0,
+        ];
+        let (c, link, other) = arm.clearance(&world, 0.0, &q);
+        assert!(c < 0.0, "{link} vs {other}: {c}");
+        assert_eq!((link, other.as_str()), ("arm_forearm_link", "chassis"));
+        // Raised by the lift, the same pose is clear of the chassis.
+        let raised = CollisionWorld::robot_body(&arm.model, 1.0);
+        let (c, link, other) = arm.clearance(&raised, 1.0, &q);
+        assert!(c > arm.margin_m, "{link} vs {other}: {c}");
     }
 }

@@ -10,6 +10,8 @@
 //! | [`collision`] | capsules, boxes, segment distances; the arm as capsules; configuration and trajectory checks |
 //! | [`base_planner`] | occupancy grid, footprint inflation, 8-connected A* |
 //! | [`lift`] | lift height that puts the target in the arm's dexterous workspace |
+//! | [`planner`] | IK to a tool0 goal, checked plan, its `/arm/joint_trajectory` and `/arm/planned_path` |
+//! | [`checker`] | the log checker: every commanded and executed arm motion within limits and collision-free |
 //!
 //! # Conventions
 //! Joint vectors are `[f64; 6]` in radians (J1..J6); times are integer nanoseconds
@@ -17,8 +19,10 @@
 
 pub mod base_planner;
 pub mod cartesian;
+pub mod checker;
 pub mod collision;
 pub mod lift;
+pub mod planner;
 pub mod trajectory;
 
 /// Why a motion could not be planned.

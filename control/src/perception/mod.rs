@@ -9,6 +9,7 @@
 //! | [`cylinder`] | RANSAC cylinder of known radius (2 points + normals) and LM refinement |
 //! | [`wire`] | hanging point on the axis, approach normal, capture fusion, `PoseStamped` |
 //! | [`handle`] | the rod handle (a bar of known radius and length): pose |
+//! | [`panoramic`] | the panoramic wire-region finder: plane of the wire, corrected map prior, wrist look pose |
 //! | [`confidence`] | quality metrics -> score in [0, 1], refusal threshold |
 //! | [`synthetic`] | seeded synthetic depth captures (cylinder, plane, boxes, noise, holes) for tests and benches |
 //! | [`rng`] | splitmix64, the only random source |
@@ -25,6 +26,7 @@
 pub mod confidence;
 pub mod cylinder;
 pub mod handle;
+pub mod panoramic;
 pub mod point_cloud;
 pub mod rng;
 pub mod roi;
@@ -110,6 +112,28 @@ pub enum PerceptionError {
     /// No capture was given.
     #[error("no captures given")]
     NoCaptures,
+    /// The wire prior does not project into the panoramic image.
+    #[error(
+        "panoramic: wire prior not in view ({samples_in_view} samples in the image, need {needed})"
+    )]
+    PanoramicNotInView {
+        /// Prior samples inside the image.
+        samples_in_view: usize,
+        /// Minimum required.
+        needed: usize,
+    },
+    /// No thin dark line along the prior in the panoramic image.
+    #[error(
+        "panoramic: no wire line ({inliers} inliers of {samples_in_view} samples in view, need {needed})"
+    )]
+    PanoramicNoWire {
+        /// Inliers of the best line.
+        inliers: usize,
+        /// Prior samples inside the image.
+        samples_in_view: usize,
+        /// Minimum inliers required.
+        needed: usize,
+    },
     /// A geometric input is degenerate (non-finite or zero-length).
     #[error("degenerate input: {what}")]
     Degenerate {

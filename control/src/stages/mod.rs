@@ -1,0 +1,8 @@
+//! Stages of the control crate that adapt the perception and motion algorithms to the
+//! message stream (DESIGN.md s2: `log_time` of an output = trigger + fixed latency).
+//!
+//! | stage | module | does |
+//! |---|---|---|
+//! | `perceive` | [`perceive`] | panoramic fix -> wrist look motion -> captures -> hanging point |
+
+pub mod perceive;
