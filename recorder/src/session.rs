@@ -131,11 +131,27 @@ pub fn record<W: World + Send + 'static>(
     duration: msgs::RobotDuration,
     options: &RecordOptions,
 ) -> Result<RecordSummary, RecordError> {
+    record_with_sinks(world, stages, header, duration, options, Vec::new())
+}
+
+/// [`record`] with more sinks beside the MCAP writer (e.g. the Rerun sink of
+/// `rodlog record --viz`): each gets the header and the whole stream, in the same order.
+///
+/// # Errors
+/// See [`RecordError`].
+pub fn record_with_sinks<W: World + Send + 'static>(
+    world: W,
+    stages: Vec<Box<dyn Stage + Send>>,
+    header: &RecordingHeader,
+    duration: msgs::RobotDuration,
+    options: &RecordOptions,
+    extra_sinks: Vec<Box<dyn Sink>>,
+) -> Result<RecordSummary, RecordError> {
     let runner = Runner::new(stages)?;
     let scheduler = Scheduler::new(world, runner);
     let mcap = McapSink::create(&options.out, &options.sink)?;
     let sink: Box<dyn Sink> = Box::new(McapStreamSink::new(mcap));
-    let mut fanout = SinkFanout::new(vec![sink]);
+    let mut fanout = SinkFanout::new(std::iter::once(sink).chain(extra_sinks).collect());
     if let Err(e) = write_header(&mut fanout, header) {
         let _finished = fanout.finish();
         return Err(e.into());

@@ -1,0 +1,892 @@
+//! [`Viz`]: the Rerun sink. Fed the message stream (live from the recorder, or a recording
+//! read back), it logs every topic of DESIGN.md section 3 to a Rerun recording stream.
+//!
+//! # Entities
+//! | entity | from | archetypes |
+//! |---|---|---|
+//! | `world` | — | `CoordinateFrame(map)`: the 3D view's reference frame |
+//! | `world/tf/<child>` | `/tf`, `/tf_static` | `Transform3D` with parent and child frame names; Rerun composes the tree |
+//! | `world/frames/<frame>` | first sight of a frame | `CoordinateFrame` + `TransformAxes3D` (axes of every TF frame, from then on) |
+//! | `world/robot/...` | `/robot_description` or the `robot.urdf` attachment | Rerun's URDF importer (links, geometry) |
+//! | `world/camera/wrist` (`/color`, `/depth`) | `/camera/color/camera_info`, `/camera/{color,depth}/image_raw` | `Pinhole` (parent `camera_color_optical_frame`, child `<frame>_image_plane`), `Image`, `DepthImage` |
+//! | `world/camera/panoramic` (`/color`) | `/panoramic/camera_info`, `/panoramic/image_raw` | `Pinhole`, `Image` |
+//! | `world/perception/roi_cloud` | `/perception/roi_cloud` | `Points3D` in the cloud's frame |
+//! | `world/poses/<name>` (`/axes`) | `/perception/target_pose`, `/base/goal`, `/sim/wire_pose`, `/sim/handle_pose`, `/sim/camera_mount` | `Transform3D` to a named frame + `TransformAxes3D` |
+//! | `world/trajectories/planned`, `.../executed` | `/arm/planned_path`; `base_link`..`tool0` composed from `/tf` | `LineStrips3D` in `base_link` |
+//! | `matches/image`, `matches/inliers`, `matches/rejected` | `/calibration/matches` + the wrist images at `stamp_a`, `stamp_b` | `Image` (side by side), `LineStrips2D` (green / red) |
+//! | `plots/...` | wind, illuminance (measured and truth), joint positions, calibration residuals and sigmas, lift command | `Scalars` (+ `SeriesLines` names) |
+//! | `log/{rosout,task,calibration,commands,sim}` | `/rosout`, `/task/event`, `/calibration/hand_eye`, command topics, `/sim/rod_state` | `TextLog` |
+//! | `recording/metadata` | MCAP metadata records | `TextDocument` (markdown) |
+//!
+//! # Time
+//! Every message is logged at its MCAP `log_time` (robot clock, DESIGN.md section 2) on the
+//! timeline [`TIMELINE_LOG_TIME`] (`robot_time`, a duration since the robot clock's epoch;
+//! not named `log_time`, which Rerun reserves for its wall-clock timestamp timeline), and at
+//! the number of wrist captures so far on [`TIMELINE_FRAME`]. The SDK's own wall-clock
+//! `log_time` and `log_tick` timelines are disabled, so nothing in the recording depends on
+//! when or how fast it was converted.
+//!
+//! # Executed trajectory
+//! Rerun composes TF frames for display, but a trajectory is a line through past poses: the
+//! sink keeps the latest transform of every edge ([`crate::tf::TfTree`]) and, after each `/tf`
+//! message, appends `base_link_from_tool0` when it moved more than [`TRAJECTORY_STEP_M`];
+//! the whole line is re-logged at most every [`TRAJECTORY_PERIOD_NS`] of robot time.
+
+use std::borrow::Cow;
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
+
+use msgs::Msg;
+use msgs::builtin_interfaces::Time;
+use msgs::geometry_msgs::{PoseStamped, TransformStamped};
+use msgs::rcl_interfaces::Log;
+use msgs::rodlog_msgs::{FeatureMatches, HandEyeCalibration, TaskEvent};
+use msgs::sensor_msgs::{CameraInfo, Image, JointState};
+use msgs::topics as t;
+use rerun::datatypes::ChannelDatatype;
+use rerun::{
+    AsComponents, CoordinateFrame, DepthImage, EntityPath, LineStrips2D, LineStrips3D, Pinhole,
+    Points3D, RecordingStream, Scalars, SeriesLines, TextDocument, TextLog, TimeCell, Transform3D,
+    TransformAxes3D,
+};
+
+use crate::VizError;
+use crate::convert::{self, PixelKind, Pixels, Pose};
+use crate::tf::TfTree;
+
+/// Timeline of the robot clock: the MCAP `log_time`, ns since the robot clock's epoch.
+pub const TIMELINE_LOG_TIME: &str = "robot_time";
+/// Timeline counting wrist captures (`/camera/color/image_raw` messages).
+pub const TIMELINE_FRAME: &str = "frame";
+/// Root of the 3D scene; its coordinate frame is `map`.
+pub const WORLD: &str = "world";
+/// The wrist camera's pinhole entity.
+pub const WRIST: &str = "world/camera/wrist";
+/// The wrist colour image.
+pub const WRIST_COLOR: &str = "world/camera/wrist/color";
+/// The wrist depth image.
+pub const WRIST_DEPTH: &str = "world/camera/wrist/depth";
+/// The panoramic camera's pinhole entity.
+pub const PANORAMIC: &str = "world/camera/panoramic";
+/// The panoramic image.
+pub const PANORAMIC_COLOR: &str = "world/camera/panoramic/color";
+/// The perception ROI cloud.
+pub const ROI_CLOUD: &str = "world/perception/roi_cloud";
+/// Planned tool0 paths.
+pub const PLANNED: &str = "world/trajectories/planned";
+/// Executed tool0 path.
+pub const EXECUTED: &str = "world/trajectories/executed";
+/// Prefix of the URDF importer's entities.
+pub const ROBOT: &str = "world/robot";
+/// The side-by-side match image.
+pub const MATCHES_IMAGE: &str = "matches/image";
+/// Inlier match segments.
+pub const MATCHES_INLIERS: &str = "matches/inliers";
+/// Rejected match segments.
+pub const MATCHES_REJECTED: &str = "matches/rejected";
+/// The metadata document.
+pub const METADATA: &str = "recording/metadata";
+
+/// Executed path: minimum tool0 displacement between two samples (m).
+pub const TRAJECTORY_STEP_M: f64 = 0.002;
+/// Executed path: minimum robot time between two re-logs of the line (ns).
+pub const TRAJECTORY_PERIOD_NS: u64 = 250_000_000;
+/// Wrist colour images kept for the match view (the calibration matches recent captures).
+pub const KEPT_IMAGES: usize = 32;
+/// Wrist camera frustum depth drawn in 3D (m).
+const WRIST_PLANE_M: f32 = 0.12;
+/// Panoramic camera frustum depth drawn in 3D (m).
+const PANORAMIC_PLANE_M: f32 = 0.4;
+/// Length of the axes drawn at every TF frame (m).
+const FRAME_AXES_M: f32 = 0.06;
+/// Frames whose axes carry their name in the 3D view (the arm links' names would hide the arm).
+const LABELLED_FRAMES: [&str; 5] = [
+    msgs::frames::MAP,
+    msgs::frames::BASE_LINK,
+    msgs::frames::TOOL0,
+    msgs::frames::CAMERA_COLOR_OPTICAL_FRAME,
+    msgs::frames::PANORAMIC_OPTICAL_FRAME,
+];
+/// Length of the axes drawn at target and truth poses (m).
+const POSE_AXES_M: f32 = 0.15;
+
+const GREEN: [u8; 3] = [40, 220, 80];
+const RED: [u8; 3] = [230, 50, 50];
+const ORANGE: [u8; 3] = [255, 150, 0];
+const CYAN: [u8; 3] = [0, 200, 255];
+
+/// What was drawn, per topic.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct VizStats {
+    /// Messages logged, per topic.
+    pub logged: BTreeMap<String, u64>,
+    /// Messages of topics or types the viewer has no drawing for, per topic.
+    pub skipped: BTreeMap<String, u64>,
+    /// Messages that could not be drawn (malformed), per topic.
+    pub failed: BTreeMap<String, u64>,
+}
+
+impl VizStats {
+    /// Messages logged on all topics.
+    pub fn total_logged(&self) -> u64 {
+        self.logged.values().sum()
+    }
+}
+
+/// The Rerun sink: a recording stream and the little state drawing needs (latest camera
+/// sizes, recent wrist images, the TF tree, the executed path).
+pub struct Viz {
+    rec: RecordingStream,
+    stats: VizStats,
+    frame: i64,
+    last_time_ns: u64,
+    frames_seen: BTreeSet<String>,
+    tf: TfTree,
+    executed: Vec<[f32; 3]>,
+    executed_last: Option<[f64; 3]>,
+    executed_dirty: bool,
+    executed_logged_ns: Option<u64>,
+    wrist_size: Option<[u32; 2]>,
+    images: VecDeque<(Time, Pixels)>,
+    urdf_hash: Option<u64>,
+    rod_state: Option<String>,
+}
+
+impl std::fmt::Debug for Viz {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Viz")
+            .field("stats", &self.stats)
+            .field("frame", &self.frame)
+            .field("last_time_ns", &self.last_time_ns)
+            .finish_non_exhaustive()
+    }
+}
+
+/// The Transform3D of `parent_from_child` between two named frames.
+fn transform(parent: &str, child: &str, p: &Pose) -> Transform3D {
+    Transform3D::new()
+        .with_translation(p.t_f32())
+        .with_quaternion(rerun::Quaternion::from_xyzw(p.q_f32()))
+        .with_parent_frame(parent)
+        .with_child_frame(child)
+}
+
+/// An entity path part from a frame or joint name (`/` would split the path).
+fn part(name: &str) -> String {
+    let s: String = name
+        .trim_start_matches('/')
+        .chars()
+        .map(|c| if c == '/' { '_' } else { c })
+        .collect();
+    if s.is_empty() { "unnamed".into() } else { s }
+}
+
+/// `frame_id`, or `default` when the header has none.
+fn frame_or<'a>(frame_id: &'a str, default: &'a str) -> &'a str {
+    if frame_id.is_empty() {
+        default
+    } else {
+        frame_id
+    }
+}
+
+/// Rerun log level of a `/rosout` level.
+fn rosout_level(level: u8) -> &'static str {
+    match level {
+        l if l >= Log::FATAL => rerun::TextLogLevel::CRITICAL,
+        l if l >= Log::ERROR => rerun::TextLogLevel::ERROR,
+        l if l >= Log::WARN => rerun::TextLogLevel::WARN,
+        l if l >= Log::INFO => rerun::TextLogLevel::INFO,
+        _ => rerun::TextLogLevel::DEBUG,
+    }
+}
+
+impl Viz {
+    /// Over a recording stream the caller built (see [`crate::stream`]): disables the SDK's
+    /// wall-clock timelines and logs the `map` root frame.
+    ///
+    /// # Errors
+    /// [`VizError::Rerun`] when the stream refuses the first log call.
+    pub fn new(rec: RecordingStream) -> Result<Self, VizError> {
+        rec.set_log_time_enabled(false);
+        rec.set_log_tick_enabled(false);
+        rec.log_static(WORLD, &CoordinateFrame::new(msgs::frames::MAP))?;
+        let mut viz = Self {
+            rec,
+            stats: VizStats::default(),
+            frame: 0,
+            last_time_ns: 0,
+            frames_seen: BTreeSet::new(),
+            tf: TfTree::new(),
+            executed: Vec::new(),
+            executed_last: None,
+            executed_dirty: false,
+            executed_logged_ns: None,
+            wrist_size: None,
+            images: VecDeque::new(),
+            urdf_hash: None,
+            rod_state: None,
+        };
+        viz.log_series_styles()?;
+        // Until odometry says otherwise, base_link sits at the map origin (recordings without a
+        // base driver, e.g. the test world, still show the robot in the 3D view). Temporal at
+        // t = 0, not static: static data would hide every later `/tf` of this edge.
+        viz.set_time(0);
+        viz.rec.log(
+            format!("world/tf/{}", msgs::frames::BASE_LINK),
+            &transform(msgs::frames::MAP, msgs::frames::BASE_LINK, &Pose::IDENTITY),
+        )?;
+        Ok(viz)
+    }
+
+    /// The underlying stream.
+    pub fn stream(&self) -> &RecordingStream {
+        &self.rec
+    }
+
+    /// What was drawn so far.
+    pub fn stats(&self) -> &VizStats {
+        &self.stats
+    }
+
+    /// Shows the MCAP metadata records as one markdown document (static).
+    ///
+    /// # Errors
+    /// [`VizError::Rerun`].
+    pub fn log_metadata(
+        &mut self,
+        records: &[(String, BTreeMap<String, String>)],
+    ) -> Result<(), VizError> {
+        let mut md = String::from("# Recording metadata\n");
+        for (name, entries) in records {
+            md.push_str(&format!("\n## {name}\n\n| key | value |\n|---|---|\n"));
+            for (k, v) in entries {
+                let v = v.replace('|', "\\|").replace('\n', " ");
+                md.push_str(&format!("| {k} | {v} |\n"));
+            }
+        }
+        self.rec.log_static(
+            METADATA,
+            &TextDocument::new(md).with_media_type(rerun::MediaType::markdown()),
+        )?;
+        Ok(())
+    }
+
+    /// Draws the robot from its URDF with Rerun's URDF importer (static, under [`ROBOT`]); a
+    /// text identical to the last one drawn is skipped.
+    ///
+    /// # Errors
+    /// [`VizError::Rerun`] when the importer rejects the text.
+    pub fn log_urdf(&mut self, urdf: &str) -> Result<(), VizError> {
+        let h = convert::fnv1a64(&[urdf]);
+        if self.urdf_hash == Some(h) {
+            return Ok(());
+        }
+        self.urdf_hash = Some(h);
+        self.rec.log_file_from_contents(
+            "robot.urdf",
+            Cow::Borrowed(urdf.as_bytes()),
+            Some(EntityPath::from(ROBOT)),
+            true,
+        )?;
+        Ok(())
+    }
+
+    /// Decodes CDR bytes of `type_name` and draws them ([`Viz::log_msg`]).
+    ///
+    /// # Errors
+    /// [`VizError::Decode`] for bytes that are not a known type, then as [`Viz::log_msg`].
+    pub fn log_cdr(
+        &mut self,
+        topic: &str,
+        type_name: &str,
+        log_time_ns: u64,
+        cdr: &[u8],
+    ) -> Result<(), VizError> {
+        match Msg::decode(type_name, cdr) {
+            Ok(msg) => self.log_msg(topic, log_time_ns, &msg),
+            Err(msgs::DecodeError::UnknownType { .. }) => {
+                *self.stats.skipped.entry(topic.to_owned()).or_default() += 1;
+                Ok(())
+            }
+            Err(source) => {
+                *self.stats.failed.entry(topic.to_owned()).or_default() += 1;
+                Err(VizError::Decode {
+                    topic: topic.to_owned(),
+                    log_time_ns,
+                    source,
+                })
+            }
+        }
+    }
+
+    /// Draws one message at `log_time_ns` (robot clock).
+    ///
+    /// A malformed message (an image shorter than its size, matches with indices out of
+    /// range, ...) is counted in [`VizStats::failed`] and returned as an error; the sink
+    /// stays usable. Topics without a drawing are counted in [`VizStats::skipped`].
+    ///
+    /// # Errors
+    /// The conversion errors of [`crate::convert`] and [`VizError::Rerun`].
+    pub fn log_msg(&mut self, topic: &str, log_time_ns: u64, msg: &Msg) -> Result<(), VizError> {
+        self.set_time(log_time_ns);
+        let result = self.dispatch(topic, log_time_ns, msg);
+        let counter = match &result {
+            Ok(true) => &mut self.stats.logged,
+            Ok(false) => &mut self.stats.skipped,
+            Err(_) => &mut self.stats.failed,
+        };
+        *counter.entry(topic.to_owned()).or_default() += 1;
+        result.map(|_| ())
+    }
+
+    fn set_time(&mut self, log_time_ns: u64) {
+        self.last_time_ns = self.last_time_ns.max(log_time_ns);
+        let ns = i64::try_from(log_time_ns).unwrap_or(i64::MAX);
+        self.rec
+            .set_time(TIMELINE_LOG_TIME, TimeCell::from_duration_nanos(ns));
+        self.rec.set_time_sequence(TIMELINE_FRAME, self.frame);
+    }
+
+    /// Returns whether the message was drawn.
+    fn dispatch(&mut self, topic: &str, log_time_ns: u64, msg: &Msg) -> Result<bool, VizError> {
+        match (topic, msg) {
+            (t::TF | t::TF_STATIC, Msg::TfMessage(m)) => {
+                for ts in &m.transforms {
+                    self.log_tf_edge(ts)?;
+                }
+                self.update_executed(log_time_ns)?;
+            }
+            (t::ROBOT_DESCRIPTION, Msg::String(s)) => self.log_urdf(&s.data)?,
+            (t::CAMERA_COLOR_INFO, Msg::CameraInfo(info)) => {
+                self.wrist_size = Some([info.width, info.height]);
+                self.log_pinhole(
+                    WRIST,
+                    info,
+                    msgs::frames::CAMERA_COLOR_OPTICAL_FRAME,
+                    WRIST_PLANE_M,
+                )?;
+            }
+            (t::PANORAMIC_INFO, Msg::CameraInfo(info)) => self.log_pinhole(
+                PANORAMIC,
+                info,
+                msgs::frames::PANORAMIC_OPTICAL_FRAME,
+                PANORAMIC_PLANE_M,
+            )?,
+            (t::CAMERA_COLOR_IMAGE, Msg::Image(img)) => {
+                self.frame += 1;
+                self.rec.set_time_sequence(TIMELINE_FRAME, self.frame);
+                let px =
+                    self.log_image(WRIST_COLOR, img, msgs::frames::CAMERA_COLOR_OPTICAL_FRAME)?;
+                self.images.push_back((img.header.stamp, px));
+                while self.images.len() > KEPT_IMAGES {
+                    self.images.pop_front();
+                }
+            }
+            (t::CAMERA_DEPTH_IMAGE, Msg::Image(img)) => {
+                self.log_image(WRIST_DEPTH, img, msgs::frames::CAMERA_COLOR_OPTICAL_FRAME)?;
+            }
+            (t::PANORAMIC_IMAGE, Msg::Image(img)) => {
+                self.log_image(PANORAMIC_COLOR, img, msgs::frames::PANORAMIC_OPTICAL_FRAME)?;
+            }
+            (t::PERCEPTION_ROI_CLOUD, Msg::PointCloud2(cloud)) => {
+                let pts = convert::cloud_points(cloud)?;
+                let mut points = Points3D::new(pts.positions).with_radii([0.002f32]);
+                if !pts.colors.is_empty() {
+                    points = points.with_colors(pts.colors);
+                } else {
+                    points = points.with_colors([GREEN]);
+                }
+                let frame =
+                    CoordinateFrame::new(frame_or(&cloud.header.frame_id, msgs::frames::BASE_LINK));
+                self.rec.log(
+                    ROI_CLOUD,
+                    &[&points as &dyn AsComponents, &frame as &dyn AsComponents],
+                )?;
+            }
+            (t::PERCEPTION_TARGET_POSE, Msg::PoseStamped(p)) => {
+                self.log_pose("target_pose", p, "perception/target_pose")?;
+            }
+            (t::BASE_GOAL, Msg::PoseStamped(p)) => {
+                self.log_pose("base_goal", p, "commands/base_goal")?;
+                self.command_line(topic, "base goal".into())?;
+            }
+            (t::SIM_WIRE_POSE, Msg::PoseStamped(p)) => {
+                self.log_pose("sim_wire_pose", p, "sim/wire_pose")?;
+            }
+            (t::SIM_HANDLE_POSE, Msg::PoseStamped(p)) => {
+                self.log_pose("sim_handle_pose", p, "sim/handle_pose")?;
+            }
+            (t::SIM_CAMERA_MOUNT, Msg::TransformStamped(ts)) => {
+                // The true mount, drawn as its own frame beside the estimated camera frame.
+                let pose = Pose::from_transform(&ts.transform);
+                let parent = frame_or(&ts.header.frame_id, msgs::frames::TOOL0);
+                self.log_named_pose("sim_camera_mount", parent, "sim/camera_mount", &pose)?;
+            }
+            (t::ARM_PLANNED_PATH, Msg::Path(path)) => {
+                let pts: Vec<[f32; 3]> = path
+                    .poses
+                    .iter()
+                    .map(|p| Pose::from_pose(&p.pose).t_f32())
+                    .collect();
+                let frame =
+                    CoordinateFrame::new(frame_or(&path.header.frame_id, msgs::frames::BASE_LINK));
+                let strips = LineStrips3D::new([pts])
+                    .with_colors([ORANGE])
+                    .with_radii([0.004f32])
+                    .with_labels(["planned"]);
+                self.rec.log(
+                    PLANNED,
+                    &[&strips as &dyn AsComponents, &frame as &dyn AsComponents],
+                )?;
+            }
+            (t::CALIBRATION_MATCHES, Msg::FeatureMatches(m)) => self.log_matches(m)?,
+            (t::CALIBRATION_HAND_EYE, Msg::HandEyeCalibration(c)) => self.log_hand_eye(c)?,
+            (t::JOINT_STATES, Msg::JointState(js)) => self.log_joints(js)?,
+            (t::ENV_WIND, Msg::Float64(v)) => self.scalar("plots/wind/measured", v.data)?,
+            (t::SIM_WIND, Msg::Float64(v)) => self.scalar("plots/wind/truth", v.data)?,
+            (t::ENV_ILLUMINANCE, Msg::Illuminance(v)) => {
+                self.scalar("plots/illuminance/measured", v.illuminance)?;
+            }
+            (t::SIM_ILLUMINANCE, Msg::Illuminance(v)) => {
+                self.scalar("plots/illuminance/truth", v.illuminance)?;
+            }
+            (t::LIFT_COMMAND, Msg::Float64(v)) => {
+                self.scalar("plots/commands/lift_m", v.data)?;
+                self.command_line(topic, format!("lift to {:.3} m", v.data))?;
+            }
+            (t::ROSOUT, Msg::Log(l)) => {
+                let text = format!("[{}] {}", l.name, l.msg);
+                self.rec.log(
+                    "log/rosout",
+                    &TextLog::new(text).with_level(rosout_level(l.level)),
+                )?;
+            }
+            (t::TASK_EVENT, Msg::TaskEvent(e)) => self.log_task_event(e)?,
+            (t::ARM_JOINT_TRAJECTORY, Msg::JointTrajectory(jt)) => {
+                let last = jt.points.last().map(|p| {
+                    p.time_from_start.sec as f64 + f64::from(p.time_from_start.nanosec) * 1e-9
+                });
+                let text = format!(
+                    "arm trajectory: {} points over {:.2} s ({})",
+                    jt.points.len(),
+                    last.unwrap_or(0.0),
+                    jt.joint_names.join(", ")
+                );
+                self.command_line(topic, text)?;
+            }
+            (t::CLAMP_COMMAND, Msg::ClampCommand(c)) => {
+                let action = match c.action {
+                    msgs::rodlog_msgs::ClampCommand::OPEN => "open",
+                    msgs::rodlog_msgs::ClampCommand::CLOSE => "close",
+                    msgs::rodlog_msgs::ClampCommand::STOP => "stop",
+                    _ => "unknown action",
+                };
+                self.command_line(
+                    topic,
+                    format!("clamp {action} (max {:.1} N m)", c.max_torque_nm),
+                )?;
+            }
+            (t::CAMERA_TRIGGER, Msg::Empty(_)) => {
+                self.command_line(topic, "capture".into())?;
+            }
+            (t::SIM_ROD_STATE, Msg::String(s)) => {
+                // Published at 10 Hz; the log shows the changes.
+                if self.rod_state.as_deref() == Some(s.data.as_str()) {
+                    return Ok(true);
+                }
+                self.rod_state = Some(s.data.clone());
+                self.rec.log(
+                    "log/sim",
+                    &TextLog::new(format!("rod {}", s.data)).with_level(rerun::TextLogLevel::INFO),
+                )?;
+            }
+            // /clock carries nothing to draw (the timeline is the robot clock already).
+            _ => return Ok(false),
+        }
+        Ok(true)
+    }
+
+    fn command_line(&mut self, topic: &str, text: String) -> Result<(), VizError> {
+        self.rec.log(
+            "log/commands",
+            &TextLog::new(format!("{topic}: {text}")).with_level(rerun::TextLogLevel::DEBUG),
+        )?;
+        Ok(())
+    }
+
+    fn scalar(&mut self, entity: &str, v: f64) -> Result<(), VizError> {
+        self.rec.log(entity, &Scalars::new([v]))?;
+        Ok(())
+    }
+
+    /// Logs the axes of `frame` the first time it is seen (at that time, not static: a frame
+    /// drawn before its transform arrives is unreachable, which the viewer flags as an error).
+    fn see_frame(&mut self, frame: &str) -> Result<(), VizError> {
+        if self.frames_seen.contains(frame) {
+            return Ok(());
+        }
+        self.frames_seen.insert(frame.to_owned());
+        self.rec.log(
+            format!("world/frames/{}", part(frame)),
+            &[
+                &CoordinateFrame::new(frame) as &dyn AsComponents,
+                &TransformAxes3D::new(FRAME_AXES_M)
+                    .with_show_frame(LABELLED_FRAMES.contains(&frame)),
+            ],
+        )?;
+        Ok(())
+    }
+
+    fn log_tf_edge(&mut self, ts: &TransformStamped) -> Result<(), VizError> {
+        let parent = ts.header.frame_id.trim_start_matches('/');
+        let child = ts.child_frame_id.trim_start_matches('/');
+        if parent.is_empty() || child.is_empty() {
+            return Err(VizError::Transform {
+                parent: parent.to_owned(),
+                child: child.to_owned(),
+            });
+        }
+        let pose = Pose::from_transform(&ts.transform);
+        self.tf.set(parent, child, pose);
+        self.see_frame(parent)?;
+        self.see_frame(child)?;
+        self.rec.log(
+            format!("world/tf/{}", part(child)),
+            &transform(parent, child, &pose),
+        )?;
+        Ok(())
+    }
+
+    /// Appends `base_link_from_tool0` to the executed path when it moved, and re-logs the
+    /// path at most every [`TRAJECTORY_PERIOD_NS`].
+    fn update_executed(&mut self, log_time_ns: u64) -> Result<(), VizError> {
+        if let Some(p) = self.tf.lookup(msgs::frames::BASE_LINK, msgs::frames::TOOL0) {
+            let moved = self.executed_last.is_none_or(|q| {
+                let d = [p.t[0] - q[0], p.t[1] - q[1], p.t[2] - q[2]];
+                (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() > TRAJECTORY_STEP_M
+            });
+            if moved {
+                self.executed_last = Some(p.t);
+                self.executed.push(p.t_f32());
+                self.executed_dirty = true;
+            }
+        }
+        let due = self
+            .executed_logged_ns
+            .is_none_or(|t0| log_time_ns.saturating_sub(t0) >= TRAJECTORY_PERIOD_NS);
+        if self.executed_dirty && due {
+            self.log_executed(log_time_ns)?;
+        }
+        Ok(())
+    }
+
+    fn log_executed(&mut self, log_time_ns: u64) -> Result<(), VizError> {
+        let strips = LineStrips3D::new([self.executed.clone()])
+            .with_colors([CYAN])
+            .with_radii([0.003f32])
+            .with_labels(["executed"]);
+        self.rec.log(
+            EXECUTED,
+            &[
+                &strips as &dyn AsComponents,
+                &CoordinateFrame::new(msgs::frames::BASE_LINK),
+            ],
+        )?;
+        self.executed_dirty = false;
+        self.executed_logged_ns = Some(log_time_ns);
+        Ok(())
+    }
+
+    fn log_pinhole(
+        &mut self,
+        entity: &str,
+        info: &CameraInfo,
+        default_frame: &str,
+        plane_m: f32,
+    ) -> Result<(), VizError> {
+        let k = convert::intrinsics(info)?;
+        let frame = frame_or(&info.header.frame_id, default_frame);
+        self.see_frame(frame)?;
+        let pinhole = Pinhole::from_focal_length_and_resolution(k.focal, k.resolution)
+            .with_principal_point(k.principal)
+            .with_parent_frame(frame)
+            .with_child_frame(format!("{frame}_image_plane"))
+            .with_image_plane_distance(plane_m);
+        self.rec.log(entity, &pinhole)?;
+        Ok(())
+    }
+
+    /// Logs a colour or depth image in `<frame>_image_plane` and returns its pixels.
+    fn log_image(
+        &mut self,
+        entity: &str,
+        img: &Image,
+        default_frame: &str,
+    ) -> Result<Pixels, VizError> {
+        let px = convert::image_pixels(img)?;
+        let size = [px.width, px.height];
+        let plane = CoordinateFrame::new(format!(
+            "{}_image_plane",
+            frame_or(&img.header.frame_id, default_frame)
+        ));
+        let data = px.data.clone();
+        match px.kind {
+            PixelKind::Rgb8 => self.rec.log(
+                entity,
+                &[
+                    &rerun::Image::from_rgb24(data, size) as &dyn AsComponents,
+                    &plane,
+                ],
+            )?,
+            PixelKind::Mono8 => self.rec.log(
+                entity,
+                &[
+                    &rerun::Image::from_l8(data, size) as &dyn AsComponents,
+                    &plane,
+                ],
+            )?,
+            PixelKind::DepthF32M => self.rec.log(
+                entity,
+                &[
+                    &DepthImage::from_data_type_and_bytes(data, size, ChannelDatatype::F32)
+                        .with_meter(1.0) as &dyn AsComponents,
+                    &plane,
+                ],
+            )?,
+            PixelKind::DepthU16Mm => self.rec.log(
+                entity,
+                &[
+                    &DepthImage::from_data_type_and_bytes(data, size, ChannelDatatype::U16)
+                        .with_meter(1000.0) as &dyn AsComponents,
+                    &plane,
+                ],
+            )?,
+        }
+        Ok(px)
+    }
+
+    /// A pose message as a named frame `frame_name` under its header frame, with axes.
+    fn log_pose(&mut self, name: &str, p: &PoseStamped, frame_name: &str) -> Result<(), VizError> {
+        let parent = frame_or(&p.header.frame_id, msgs::frames::BASE_LINK);
+        self.log_named_pose(name, parent, frame_name, &Pose::from_pose(&p.pose))
+    }
+
+    fn log_named_pose(
+        &mut self,
+        name: &str,
+        parent: &str,
+        frame_name: &str,
+        pose: &Pose,
+    ) -> Result<(), VizError> {
+        let entity = format!("world/poses/{name}");
+        self.rec
+            .log(entity.as_str(), &transform(parent, frame_name, pose))?;
+        self.rec.log(
+            format!("{entity}/axes"),
+            &[
+                &CoordinateFrame::new(frame_name) as &dyn AsComponents,
+                &TransformAxes3D::new(POSE_AXES_M).with_show_frame(true),
+            ],
+        )?;
+        Ok(())
+    }
+
+    fn log_joints(&mut self, js: &JointState) -> Result<(), VizError> {
+        for (name, pos) in js.name.iter().zip(&js.position) {
+            let group = if name == msgs::frames::LIFT_JOINT || name == msgs::frames::CLAMP_JOINT {
+                "prismatic_m"
+            } else {
+                "joints_rad"
+            };
+            self.scalar(&format!("plots/{group}/{}", part(name)), *pos)?;
+        }
+        Ok(())
+    }
+
+    fn log_hand_eye(&mut self, c: &HandEyeCalibration) -> Result<(), VizError> {
+        self.scalar("plots/calibration/residual_rot_deg", c.residual_rot_deg)?;
+        self.scalar("plots/calibration/residual_trans_mm", c.residual_trans_mm)?;
+        self.scalar("plots/calibration/sigma_rot_deg", c.sigma_rot_deg)?;
+        self.scalar("plots/calibration/sigma_trans_mm", c.sigma_trans_mm)?;
+        let tr = c.tool0_from_camera.translation;
+        let text = format!(
+            "hand-eye {} ({}): {} views, {} pairs, t = [{:.4}, {:.4}, {:.4}] m, residual {:.3} deg / {:.2} mm, sigma {:.3} deg / {:.2} mm, condition {:.1}, scale {:.4}",
+            c.method,
+            c.mode,
+            c.views,
+            c.pairs,
+            tr.x,
+            tr.y,
+            tr.z,
+            c.residual_rot_deg,
+            c.residual_trans_mm,
+            c.sigma_rot_deg,
+            c.sigma_trans_mm,
+            c.condition,
+            c.scale
+        );
+        self.rec.log(
+            "log/calibration",
+            &TextLog::new(text).with_level(rerun::TextLogLevel::INFO),
+        )?;
+        Ok(())
+    }
+
+    fn log_task_event(&mut self, e: &TaskEvent) -> Result<(), VizError> {
+        let (kind, level) = match e.kind {
+            TaskEvent::REFUSED => ("REFUSED", rerun::TextLogLevel::WARN),
+            TaskEvent::FAILED => ("FAILED", rerun::TextLogLevel::ERROR),
+            TaskEvent::DONE => ("DONE", rerun::TextLogLevel::INFO),
+            _ => ("INFO", rerun::TextLogLevel::INFO),
+        };
+        let reason = if e.reason_code.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", e.reason_code)
+        };
+        let text = format!("[{}/{}] {kind}{reason}: {}", e.task, e.state, e.text);
+        self.rec
+            .log("log/task", &TextLog::new(text).with_level(level))?;
+        Ok(())
+    }
+
+    fn log_matches(&mut self, m: &FeatureMatches) -> Result<(), VizError> {
+        let find = |stamp: Time| {
+            self.images
+                .iter()
+                .rev()
+                .find(|(s, _)| *s == stamp)
+                .map(|(_, p)| p)
+        };
+        let (a, b) = (find(m.stamp_a), find(m.stamp_b));
+        let fallback = self.wrist_size.unwrap_or_else(|| {
+            // No camera info yet: the keypoints' extent.
+            let max = |kp: &[f32], k: usize| {
+                kp.iter()
+                    .skip(k)
+                    .step_by(2)
+                    .fold(1.0f32, |acc, v| acc.max(v.ceil()))
+            };
+            [
+                max(&m.keypoints_a, 0).max(max(&m.keypoints_b, 0)) as u32,
+                max(&m.keypoints_a, 1).max(max(&m.keypoints_b, 1)) as u32,
+            ]
+        });
+        let canvas = convert::match_canvas(m, a, b, fallback)?;
+        let n_in = canvas.inliers.len();
+        let n_out = canvas.rejected.len();
+        self.rec.log(
+            MATCHES_IMAGE,
+            &rerun::Image::from_rgb24(canvas.rgb, [canvas.width, canvas.height]),
+        )?;
+        let segs = |v: &[[[f32; 2]; 2]]| v.iter().map(|s| s.to_vec()).collect::<Vec<_>>();
+        self.rec.log(
+            MATCHES_INLIERS,
+            &LineStrips2D::new(segs(&canvas.inliers))
+                .with_colors([GREEN])
+                .with_radii([0.75f32])
+                .with_draw_order(10.0),
+        )?;
+        self.rec.log(
+            MATCHES_REJECTED,
+            &LineStrips2D::new(segs(&canvas.rejected))
+                .with_colors([RED])
+                .with_radii([0.5f32])
+                .with_draw_order(9.0),
+        )?;
+        self.rec.log(
+            "log/calibration",
+            &TextLog::new(format!(
+                "matches {}: {n_in} inliers, {n_out} rejected ({} / {} keypoints{})",
+                m.method,
+                m.keypoints_a.len() / 2,
+                m.keypoints_b.len() / 2,
+                if a.is_none() || b.is_none() {
+                    ", an image was not in the stream"
+                } else {
+                    ""
+                }
+            ))
+            .with_level(rerun::TextLogLevel::DEBUG),
+        )?;
+        Ok(())
+    }
+
+    /// Logs the static names and colours of the fixed series.
+    fn log_series_styles(&mut self) -> Result<(), VizError> {
+        let styles: [(&str, &str, [u8; 3]); 8] = [
+            (
+                "plots/wind/measured",
+                "wind (anemometer, 3-s mean) m/s",
+                CYAN,
+            ),
+            (
+                "plots/wind/truth",
+                "wind (simulator truth) m/s",
+                [120, 120, 120],
+            ),
+            (
+                "plots/illuminance/measured",
+                "illuminance (lux sensor) lx",
+                ORANGE,
+            ),
+            (
+                "plots/illuminance/truth",
+                "illuminance (truth) lx",
+                [120, 120, 120],
+            ),
+            (
+                "plots/calibration/residual_rot_deg",
+                "AX=XB residual deg",
+                GREEN,
+            ),
+            (
+                "plots/calibration/residual_trans_mm",
+                "AX=XB residual mm",
+                RED,
+            ),
+            (
+                "plots/calibration/sigma_rot_deg",
+                "1-sigma deg",
+                [60, 120, 60],
+            ),
+            (
+                "plots/calibration/sigma_trans_mm",
+                "1-sigma mm",
+                [120, 60, 60],
+            ),
+        ];
+        for (entity, name, color) in styles {
+            self.rec.log_static(
+                entity,
+                &SeriesLines::new().with_names([name]).with_colors([color]),
+            )?;
+        }
+        Ok(())
+    }
+
+    /// Logs what is still pending (the executed path) and flushes the stream.
+    ///
+    /// # Errors
+    /// [`VizError::Rerun`], [`VizError::Flush`].
+    pub fn flush(&mut self) -> Result<(), VizError> {
+        if self.executed_dirty {
+            let t = self.last_time_ns;
+            self.set_time(t);
+            self.log_executed(t)?;
+        }
+        self.rec
+            .flush_blocking()
+            .map_err(|e| VizError::Flush(e.to_string()))
+    }
+
+    /// Flushes and closes the stream (for a file: writes the end of the .rrd).
+    ///
+    /// # Errors
+    /// As [`Viz::flush`].
+    pub fn finish(mut self) -> Result<VizStats, VizError> {
+        self.flush()?;
+        self.rec.disconnect();
+        Ok(self.stats)
+    }
+}
