@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod cmd;
+mod experiment;
 mod import;
 
 /// Substation grounding-rod robot: log-centric hand-eye self-calibration and tasks.
@@ -31,6 +32,13 @@ enum Command {
     /// Import a dataset on disk as a recording.
     #[command(subcommand)]
     Import(cmd::import::ImportCommand),
+    /// Run an experiment of DESIGN.md section 7: report.md, results.json, plots.
+    Experiment(cmd::experiment::ExperimentArgs),
+    /// Show a recording in Rerun: write an .rrd, spawn a viewer or stream to one.
+    View(cmd::view::ViewArgs),
+    /// Check a recording: `motion` (limits, speeds, accelerations, collisions).
+    #[command(subcommand)]
+    Check(cmd::check::CheckCommand),
 }
 
 fn main() -> ExitCode {
@@ -41,6 +49,9 @@ fn main() -> ExitCode {
         Command::Replay(args) => cmd::replay::run(&args),
         Command::Calib(command) => cmd::calib::run(&command),
         Command::Import(command) => cmd::import::run(&command),
+        Command::Experiment(args) => cmd::experiment::run(&args),
+        Command::View(args) => cmd::view::run(&args),
+        Command::Check(command) => cmd::check::run(&command),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -21,7 +21,8 @@ const CAMERA_FRAME: &str = msgs::frames::CAMERA_COLOR_OPTICAL_FRAME;
 pub enum CalibCommand {
     /// Hand-eye calibration (AX=XB) from hand and eye pose files (TUM format).
     Handeye(HandeyeArgs),
-    /// Match two images the way calibration does (ORB + quadtree, BF Hamming, GMS).
+    /// Match two images the way calibration does (ORB + quadtree, BF Hamming, GMS), or with
+    /// a baseline (--method).
     Match(MatchArgs),
     /// Hand-eye calibration from a recording of a chessboard (corners, PnP, AX=XB).
     Board(BoardArgs),
@@ -36,7 +37,7 @@ pub enum CalibCommand {
 pub struct SelfArgs {
     /// Recording with wrist images (and depth), camera info and the arm's /tf.
     pub rec: PathBuf,
-    /// Method: ours (the paper's pipeline). `zhi` comes with the experiments.
+    /// Method: ours (the paper's pipeline) or zhi (the SIFT + SfM + SVD baseline, colour only).
     #[arg(long, default_value = "ours")]
     pub method: String,
     /// Print one JSON object (DESIGN.md section 4, plus per-pair reports) on stdout.
@@ -45,6 +46,14 @@ pub struct SelfArgs {
     /// Also write the result as YAML (parent tool0, child camera, direction named).
     #[arg(long)]
     pub yaml: Option<PathBuf>,
+    /// Also write OUT.mcap: the recording's messages plus the calibration stage's outputs
+    /// (`/calibration/hand_eye`, `/calibration/matches`, the camera edge on `/tf`, `/rosout`),
+    /// like `rodlog replay --out` with the calibration stage. Nothing is written on error.
+    #[arg(long, value_name = "OUT.mcap")]
+    pub out: Option<PathBuf>,
+    /// Ignore recorded depth: the monocular path even when depth is present.
+    #[arg(long)]
+    pub mono: bool,
 }
 
 /// Arguments of `rodlog calib board`.
@@ -73,10 +82,12 @@ pub struct MatchArgs {
     pub image_a: PathBuf,
     /// Second image.
     pub image_b: PathBuf,
-    /// orb-gms (default: the paper's front end) or orb-bf (cross-checked, no filter).
+    /// orb-gms (default: the paper's front end), orb-bf (cross-checked, no filter), sift
+    /// (Lowe's SIFT, L2 ratio test 0.8, no filter) or akaze (AKAZE, Hamming ratio test 0.8,
+    /// fundamental-matrix RANSAC; all keypoints, --features does not apply).
     #[arg(long, default_value = "orb-gms")]
     pub method: String,
-    /// Features per image.
+    /// Features per image (ORB's target; SIFT keeps at most this many strongest).
     #[arg(long, default_value_t = 2000)]
     pub features: usize,
     /// Print the match JSON (DESIGN.md section 4) on stdout.
@@ -185,17 +196,27 @@ fn self_calibration(args: &SelfArgs) -> Result<()> {
     use calib::selfcal::{
         SelfCalParams, calibration_yaml, result_json, self_calibrate, views_from_messages,
     };
-    if args.method != "ours" {
-        bail!(
-            "calib self --method {}: only `ours` is available (the `zhi` baseline comes with the experiments)",
-            args.method
-        );
+    if args.method == "zhi" {
+        return self_calibration_zhi(args);
     }
-    let messages = super::recording_views::read_calibration_messages(&args.rec)?;
+    if args.method != "ours" {
+        bail!("calib self --method {}: use ours or zhi", args.method);
+    }
+    let mut messages = super::recording_views::read_calibration_messages(&args.rec)?;
+    if args.mono {
+        messages.retain(|(topic, _)| topic != msgs::topics::CAMERA_DEPTH_IMAGE);
+    }
     let (views, camera) = views_from_messages(&messages)
         .with_context(|| format!("cannot build calibration views from {}", args.rec.display()))?;
     let params = SelfCalParams::for_camera(&camera);
     let result = self_calibrate(&views, &camera, &params).context("self-calibration refused")?;
+    let written = match &args.out {
+        Some(out) => Some((
+            out,
+            write_calibrated_recording(&args.rec, out, views.len(), args.mono)?,
+        )),
+        None => None,
+    };
     if let Some(path) = &args.yaml {
         std::fs::write(path, calibration_yaml(&result, &args.method, CAMERA_FRAME))
             .with_context(|| format!("cannot write {}", path.display()))?;
@@ -215,6 +236,123 @@ fn self_calibration(args: &SelfArgs) -> Result<()> {
             result.pairs.len()
         ))?;
         super::print_stdout(&human_text(&result.solution, Method::Ours))?;
+        if let Some((out, n)) = written {
+            super::print_stdout(&format!(
+                "wrote {n} messages (inputs + calibration stage outputs) to {}",
+                out.display()
+            ))?;
+        }
+    }
+    Ok(())
+}
+
+/// `calib self --out`: the recording replayed through the calibration stage alone (every
+/// recorded channel is an input except the stage's own, which are regenerated), calibrating
+/// once after `captures` captures, into a temporary file beside `out` renamed over it only
+/// when complete (never a half-written `out`).
+fn write_calibrated_recording(
+    rec: &std::path::Path,
+    out: &std::path::Path,
+    captures: usize,
+    mono: bool,
+) -> Result<u64> {
+    use calib::selfcal::{CalibrationStage, CalibrationStageConfig};
+    use recorder::{McapSink, McapStreamSink, MetadataRecord, Sink, SinkFanout, SinkOptions};
+    use replay::{McapReader, ReplayOptions, whatif};
+
+    let name = out
+        .file_name()
+        .with_context(|| format!("--out {}: not a file name", out.display()))?;
+    let tmp = out.with_file_name(format!(".{}.partial", name.to_string_lossy()));
+    let write = || -> Result<u64> {
+        let mut reader =
+            McapReader::open(rec).with_context(|| format!("cannot read {}", rec.display()))?;
+        let config = CalibrationStageConfig {
+            captures_to_solve: captures,
+            ignore_depth: mono,
+            ..CalibrationStageConfig::default()
+        };
+        let stages: Vec<Box<dyn msgs::Stage + Send>> =
+            vec![Box::new(CalibrationStage::new(config))];
+        let mcap = McapSink::create(&tmp, &SinkOptions::default())?;
+        let sink: Box<dyn Sink> = Box::new(McapStreamSink::new(mcap));
+        let mut fanout = SinkFanout::new(vec![sink]);
+        for m in reader.metadata().to_vec() {
+            if m.name == whatif::WHATIF_RECORD || m.name == SELF_CAL_RECORD {
+                continue;
+            }
+            let mut record = MetadataRecord::new(m.name.clone());
+            record.entries = m.entries.clone();
+            fanout.write_metadata(&record)?;
+        }
+        for a in reader.attachments().to_vec() {
+            let data = reader.read_attachment(&a)?;
+            fanout.attach(&a.name, &a.media_type, a.log_time_ns, &data)?;
+        }
+        let report = replay::replay(
+            &mut reader,
+            stages,
+            &ReplayOptions::default(),
+            Some(&mut fanout),
+        )
+        .with_context(|| format!("replaying {} through the calibration stage", rec.display()))?;
+        fanout.write_metadata(
+            &MetadataRecord::new(SELF_CAL_RECORD)
+                .with("source", rec.display().to_string())
+                .with("captures", captures.to_string())
+                .with("mode", if mono { "mono" } else { "auto" }),
+        )?;
+        fanout.finish()?;
+        Ok(report.written)
+    };
+    match write() {
+        Ok(written) => {
+            std::fs::rename(&tmp, out)
+                .with_context(|| format!("cannot move {} to {}", tmp.display(), out.display()))?;
+            Ok(written)
+        }
+        Err(e) => {
+            let _ignored = std::fs::remove_file(&tmp);
+            Err(e.context(format!("--out {}: nothing written", out.display())))
+        }
+    }
+}
+
+/// Metadata record `calib self --out` adds: source recording, captures, mode.
+const SELF_CAL_RECORD: &str = "calib_self";
+
+/// `calib self --method zhi`: the ZHI baseline (SIFT, SfM, scale-free SVD; colour only).
+fn self_calibration_zhi(args: &SelfArgs) -> Result<()> {
+    use calib::selfcal::views_from_messages;
+    use calib::zhi::{ZhiParams, calibrate_zhi};
+    if args.yaml.is_some() {
+        bail!("calib self --method zhi: --yaml is only written by `ours`");
+    }
+    let messages = super::recording_views::read_calibration_messages(&args.rec)?;
+    let (views, camera) = views_from_messages(&messages)
+        .with_context(|| format!("cannot build calibration views from {}", args.rec.display()))?;
+    let params = ZhiParams::for_camera(&camera);
+    let result = calibrate_zhi(&views, &camera, &params).context("ZHI calibration refused")?;
+    if args.json {
+        let mut value = calibration_json(&result.solution, "zhi", "mono", CAMERA_FRAME);
+        if let Some(obj) = value.as_object_mut() {
+            obj.insert("registered_views".into(), result.registered().into());
+            obj.insert("points".into(), result.points.into());
+            obj.insert(
+                "reprojection_rms_px".into(),
+                result.reprojection_rms_px.into(),
+            );
+        }
+        super::print_stdout(&serde_json::to_string(&value)?)?;
+    } else {
+        super::print_stdout(&format!(
+            "ZHI (sfm, colour only): {} of {} views registered, {} points, reprojection RMS {:.3} px",
+            result.registered(),
+            views.len(),
+            result.points,
+            result.reprojection_rms_px
+        ))?;
+        super::print_stdout(&human_text(&result.solution, Method::Kronecker))?;
     }
     Ok(())
 }
@@ -225,12 +363,8 @@ fn match_images(args: &MatchArgs) -> Result<()> {
         bail!("--features must be at least 1");
     }
     let command = MatchCommand {
-        method: args.method.parse().with_context(|| {
-            format!(
-                "unknown match method '{}': use orb-gms or orb-bf",
-                args.method
-            )
-        })?,
+        // The error names the method and lists the available ones.
+        method: args.method.parse()?,
         n_features: args.features,
         picture: args.picture.clone(),
         ..MatchCommand::new(&args.image_a, &args.image_b)

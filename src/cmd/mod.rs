@@ -1,11 +1,14 @@
 //! The subcommands, one module each.
 
 pub mod calib;
+pub mod check;
+pub mod experiment;
 pub mod import;
 pub mod info;
 pub mod record;
 pub mod recording_views;
 pub mod replay;
+pub mod view;
 
 /// Prints `text` and a newline on stdout; a closed pipe (`rodlog ... | head`) is not an
 /// error worth a panic, so it ends the output quietly.

@@ -1,5 +1,5 @@
 //! `rodlog record --scenario NAME|FILE [--seed N] [--set k=v]... [--out rec.mcap] [--realtime]
-//! [--threads N]`: run a scenario in the (test) world through the pipeline and record it.
+//! [--threads N] [--viz rec.rrd]`: run a scenario in the (test) world through the pipeline and record it.
 //!
 //! Also the pipeline of stages shared with `rodlog replay` ([`pipeline`]): replay must run the
 //! very same stages, built from the same parameters, to reproduce a recording.
@@ -53,6 +53,9 @@ pub struct RecordArgs {
     /// Chunk compression: lz4 (default), zstd or none.
     #[arg(long, default_value = "lz4")]
     pub compression: String,
+    /// Also draw the run in Rerun: write this .rrd beside the MCAP (the viz sink).
+    #[arg(long, value_name = "REC.rrd")]
+    pub viz: Option<PathBuf>,
 }
 
 /// Directories searched for scenario names: `./recordings/scenarios`, then the source tree's.
@@ -66,7 +69,8 @@ pub fn scenario_dirs() -> Vec<PathBuf> {
 /// The stages of the current pipeline, configured from `params` and the scenario's
 /// `[[command]]` list, in rank order. The world (`world` parameter, default `sim`) decides
 /// which stages stand in front of it:
-/// - `sim`: `robot_state` (robot crate), `script` (control crate: plays the commands);
+/// - `sim`: `robot_state` (robot crate), `script` (control crate: plays the commands),
+///   `calibration` (calib crate: self-calibration and the camera edge, [`calibration_stage`]);
 /// - `test_world`: `robot_state`, `arm_exerciser`, `joint_limit_monitor` (recorder crate).
 ///
 /// Replay builds the same list from the recording's metadata and attached scenario.
@@ -89,10 +93,15 @@ pub fn pipeline(
     );
     let world = params.str_or(WORLD_PARAM, DEFAULT_WORLD)?;
     match world.as_str() {
-        "sim" => Ok(vec![
-            Box::new(robot_state),
-            Box::new(script_stage(commands)?),
-        ]),
+        "sim" => {
+            let mut stages: Vec<Box<dyn Stage + Send>> = vec![
+                Box::new(robot_state),
+                Box::new(script_stage(commands)?),
+                Box::new(calibration_stage(params, commands)?),
+            ];
+            stages.extend(perceive_stage(params)?);
+            Ok(stages)
+        }
         "test_world" => Ok(vec![
             Box::new(robot_state),
             Box::new(ArmExerciser::from_params(params)?),
@@ -100,6 +109,101 @@ pub fn pipeline(
         ]),
         other => bail!("unknown world {other:?}: use sim (the simulator) or test_world"),
     }
+}
+
+/// The calibration stage (calib crate, DESIGN.md s3) from the `calibration.*` parameters.
+/// `calibration.captures` (captures after which it self-calibrates; 0 = never, it then only
+/// publishes the nominal camera edge) defaults to the scenario's number of `capture`
+/// commands when that is at least [`calib::selfcal::MIN_VIEWS`], else 0; the other keys
+/// default to [`calib::selfcal::CalibrationStageConfig::default`].
+///
+/// # Errors
+/// A mistyped or out-of-range parameter.
+pub fn calibration_stage(
+    params: &Params,
+    commands: &[toml::Table],
+) -> anyhow::Result<calib::selfcal::CalibrationStage> {
+    use calib::selfcal::{CalibrationStage, CalibrationStageConfig, MIN_VIEWS};
+    let d = CalibrationStageConfig::default();
+    let scripted = commands
+        .iter()
+        .filter(|c| c.get("kind").and_then(toml::Value::as_str) == Some("capture"))
+        .count();
+    let default_captures = if scripted >= MIN_VIEWS { scripted } else { 0 };
+    let ms = |key: &str, default: msgs::RobotDuration| -> anyhow::Result<msgs::RobotDuration> {
+        let v = params.f64_or(key, default.as_secs_f64() * 1e3)?;
+        msgs::RobotDuration::from_secs_f64(v * 1e-3).with_context(|| key.to_owned())
+    };
+    let positive = |key: &str, default: f64| -> anyhow::Result<f64> {
+        let v = params.f64_or(key, default)?;
+        if !(v.is_finite() && v >= 0.0) {
+            bail!("{key} = {v}: must be a finite number >= 0");
+        }
+        Ok(v)
+    };
+    let config = CalibrationStageConfig {
+        latency: ms("calibration.latency_ms", d.latency)?,
+        captures_to_solve: usize::try_from(
+            params.u64_or("calibration.captures", default_captures as u64)?,
+        )
+        .context("calibration.captures")?,
+        min_view_rotation_deg: positive(
+            "calibration.min_view_rotation_deg",
+            d.min_view_rotation_deg,
+        )?,
+        max_residual_rot_deg: positive("calibration.max_residual_rot_deg", d.max_residual_rot_deg)?,
+        max_residual_trans_mm: positive(
+            "calibration.max_residual_trans_mm",
+            d.max_residual_trans_mm,
+        )?,
+        depth_wait: ms("calibration.depth_wait_ms", d.depth_wait)?,
+        tf_wait: msgs::RobotDuration::from_secs_f64(positive(
+            "calibration.tf_wait_s",
+            d.tf_wait.as_secs_f64(),
+        )?)
+        .context("calibration.tf_wait_s")?,
+        ignore_depth: params.bool_or("calibration.mono", d.ignore_depth)?,
+        seed: params.u64_or("calibration.seed", d.seed)?,
+        ..d
+    };
+    Ok(CalibrationStage::new(config))
+}
+
+/// The `perceive` stage (control crate: panoramic fix, wrist look motion, captures, hanging
+/// point) when `perceive.enabled = true`, configured from `perceive.*`: `panoramic_at_s`,
+/// `look_at_s`, `standoff_m`, `captures`, `prior_x_m`/`prior_y_m`/`prior_z_m` (the map's
+/// wire prior), `latency_ms`; defaults of [`control::stages::perceive::PerceiveConfig`].
+///
+/// # Errors
+/// Mistyped parameters.
+pub fn perceive_stage(params: &Params) -> anyhow::Result<Option<Box<dyn Stage + Send>>> {
+    use control::stages::perceive::{PerceiveConfig, PerceiveStage};
+    if !params.bool_or("perceive.enabled", false)? {
+        return Ok(None);
+    }
+    let d = PerceiveConfig::default();
+    let time = |key: &str, default: f64| -> anyhow::Result<msgs::RobotTime> {
+        msgs::RobotTime::from_secs_f64(params.f64_or(key, default)?).with_context(|| key.to_owned())
+    };
+    let mut prior = d.prior_in_map;
+    prior.point = nalgebra::Point3::new(
+        params.f64_or("perceive.prior_x_m", prior.point.x)?,
+        params.f64_or("perceive.prior_y_m", prior.point.y)?,
+        params.f64_or("perceive.prior_z_m", prior.point.z)?,
+    );
+    let config = PerceiveConfig {
+        prior_in_map: prior,
+        panoramic_at: time("perceive.panoramic_at_s", 0.0)?,
+        look_at: time("perceive.look_at_s", 0.0)?,
+        standoff_m: params.f64_or("perceive.standoff_m", d.standoff_m)?,
+        captures: usize::try_from(params.u64_or("perceive.captures", d.captures as u64)?)?,
+        latency: msgs::RobotDuration::from_secs_f64(
+            params.f64_or("perceive.latency_ms", d.latency.as_secs_f64() * 1e3)? * 1e-3,
+        )
+        .context("perceive.latency_ms")?,
+        ..d
+    };
+    Ok(Some(Box::new(PerceiveStage::new(config)?)))
 }
 
 /// The `script` stage from a scenario's `[[command]]` tables (`t_s`, `kind`, `values`,
@@ -247,15 +351,23 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
         realtime: args.realtime,
         threads: args.threads,
     };
+    let mut extra_sinks: Vec<Box<dyn recorder::Sink>> = Vec::new();
+    if let Some(rrd) = &args.viz {
+        extra_sinks.push(Box::new(super::view::VizSink::create(
+            rrd,
+            &header.metadata,
+        )?));
+    }
     let summary = match world_name.as_str() {
-        "sim" => recorder::record(
+        "sim" => recorder::record_with_sinks(
             sim_world(&scenario)?,
             stages,
             &header,
             scenario.duration,
             &options,
+            extra_sinks,
         ),
-        _ => recorder::record(
+        _ => recorder::record_with_sinks(
             TestWorld::new(TestWorldConfig::from_params(
                 scenario.seed,
                 &scenario.params,
@@ -264,6 +376,7 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
             &header,
             scenario.duration,
             &options,
+            extra_sinks,
         ),
     }
     .with_context(|| format!("recording scenario {} to {}", scenario.name, out.display()))?;

@@ -1,0 +1,172 @@
+//! `rodlog experiment NAME`: the paper's evaluations and ours (DESIGN.md section 7), each
+//! writing `DIR/report.md`, `DIR/results.json` and plots (PNG + SVG) under `DIR/plots/`.
+//!
+//! Table of contents:
+//! - [`Settings`]: what every experiment gets from the command line (trials, seed, output
+//!   folder, image scale, whether to run the OpenCV reference) and [`trial_seed`].
+//! - [`OutputDir`]: the output folder and its `plots/` and `images/` subfolders.
+//! - [`report`]: markdown [`report::Table`] and [`report::Report`], [`report::Results`]
+//!   for `results.json` (version, seeds, parameters, every table number, exact floats).
+//! - [`stats`]: [`stats::Summary`] (median, quartiles, mean, p95; deterministic) and
+//!   [`stats::RefusalCounter`] (refusals per condition and method, shown, never dropped).
+//! - [`progress`]: [`progress::Progress`], an indicatif bar on stderr, hidden off a terminal.
+//! - Plots: `viz::plots` (box plots per condition and method, line plots, bar charts).
+//! - Experiments: [`matchers`] (feature matchers on pairs with known geometry), [`noise`],
+//!   [`motions`], [`datasets`] (hand-eye calibration, ours vs ZHI; issue 9).
+//!
+//! # Writing an experiment
+//! A module with `pub fn run(settings: &Settings) -> anyhow::Result<()>` that
+//! 1. derives every trial's seed with [`trial_seed`] and records them in
+//!    [`report::Results::seeds`],
+//! 2. runs trials (rayon is fine: collect results in trial order, not completion order),
+//!    ticking a [`progress::Progress`], counting failures in a [`stats::RefusalCounter`],
+//! 3. summarises with [`stats::Summary::of`], fills a [`report::Report`] (tables, the
+//!    refusal counts, plots from `viz::plots` written into [`OutputDir::plots`]) and a
+//!    [`report::Results`] with the same numbers, and writes both into [`OutputDir::root`],
+//! 4. prints the path of `report.md` (stdout is for the result, the bar is on stderr).
+//!
+//! Then add one arm to the `match` in `src/cmd/experiment.rs`.
+
+pub mod datasets;
+pub mod matchers;
+pub mod motions;
+pub mod noise;
+pub mod progress;
+pub mod report;
+pub mod stats;
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+
+/// What every experiment gets from `rodlog experiment NAME [--trials N] [--out DIR] [--seed
+/// S] [--image-scale F] [--no-reference]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    /// The experiment's name (`matchers`, `noise`, ...).
+    pub name: &'static str,
+    /// `--trials`: the number of seeded trials per condition, `None` for the experiment's
+    /// own default (the paper's count, e.g. 100). CI passes 2.
+    pub trials: Option<usize>,
+    /// `--seed`: the seed every trial seed derives from ([`trial_seed`]).
+    pub seed: u64,
+    /// `--image-scale`: factor on image sizes (rendered or loaded), 1.0 = the experiment's
+    /// full resolution; CI smoke runs use a small value (e.g. 0.25) to stay fast in debug.
+    pub image_scale: f64,
+    /// Run the optional OpenCV reference columns when its venv exists ([`reference_python`]);
+    /// `--no-reference` turns them off.
+    pub reference: bool,
+    /// The output folder (created).
+    pub out: OutputDir,
+}
+
+impl Settings {
+    /// `--trials` or the experiment's `default`, at least 1.
+    pub fn trials_or(&self, default: usize) -> usize {
+        self.trials.unwrap_or(default).max(1)
+    }
+}
+
+/// Seed of trial `trial` of set `set` (e.g. a condition index) under the run seed `seed`:
+/// `sim::rng::key(seed, set, trial)` (SplitMix64 mixing), so trials are independent of each
+/// other, of the order they run in and of the thread count, and any one of them can be rerun
+/// alone from the seed in `results.json`.
+pub fn trial_seed(seed: u64, set: u64, trial: u64) -> u64 {
+    sim::rng::key(seed, set, trial)
+}
+
+/// The output folder of a run: `root/report.md`, `root/results.json`, `root/plots/*.{png,svg}`,
+/// `root/images/*.png` (example pictures, e.g. match drawings).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct OutputDir {
+    root: PathBuf,
+}
+
+impl OutputDir {
+    /// Creates `root`, `root/plots` and `root/images` (existing files in them are
+    /// overwritten by the run, others are left alone).
+    ///
+    /// # Errors
+    /// When a folder cannot be created (e.g. `root` is a file).
+    pub fn create(root: &Path) -> Result<Self> {
+        for d in [root.to_path_buf(), root.join("plots"), root.join("images")] {
+            std::fs::create_dir_all(&d)
+                .with_context(|| format!("creating output folder {}", d.display()))?;
+        }
+        Ok(Self {
+            root: root.to_path_buf(),
+        })
+    }
+
+    /// The folder itself (report.md and results.json go here).
+    pub fn root(&self) -> &Path {
+        &self.root
+    }
+
+    /// `root/plots/STEM` (no extension: `viz::plots` writers add `.png` and `.svg`).
+    pub fn plot_stem(&self, stem: &str) -> PathBuf {
+        self.root.join("plots").join(stem)
+    }
+
+    /// `root/images/NAME`.
+    pub fn image(&self, name: &str) -> PathBuf {
+        self.root.join("images").join(name)
+    }
+
+    /// `path` relative to the root, with `/` separators, for links in report.md (the path
+    /// itself when it is not under the root).
+    pub fn relative(&self, path: &Path) -> String {
+        let p = path.strip_prefix(&self.root).unwrap_or(path);
+        p.components()
+            .map(|c| c.as_os_str().to_string_lossy().into_owned())
+            .collect::<Vec<_>>()
+            .join("/")
+    }
+}
+
+/// The Python of the OpenCV reference venv (`scripts/venv.sh`), if there is one: the
+/// `RODLOG_VENV_REF` environment variable, else `.venv-ref` in the current folder, else in
+/// the source tree the binary was built from. `None` when none holds `bin/python`.
+pub fn reference_python() -> Option<PathBuf> {
+    let mut roots: Vec<PathBuf> = Vec::new();
+    if let Some(v) = std::env::var_os("RODLOG_VENV_REF") {
+        roots.push(PathBuf::from(v));
+    }
+    roots.push(PathBuf::from(".venv-ref"));
+    roots.push(Path::new(env!("CARGO_MANIFEST_DIR")).join(".venv-ref"));
+    roots
+        .into_iter()
+        .map(|r| r.join("bin").join("python"))
+        .find(|p| p.is_file())
+}
+
+/// A script of the source tree (`scripts/...`), for the reference columns; `None` when the
+/// binary runs away from its source tree.
+pub fn source_script(relative: &str) -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join(relative);
+    p.is_file().then_some(p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn trial_seeds_differ_and_are_stable() {
+        assert_eq!(trial_seed(1, 0, 0), trial_seed(1, 0, 0));
+        assert_ne!(trial_seed(1, 0, 0), trial_seed(1, 0, 1));
+        assert_ne!(trial_seed(1, 0, 0), trial_seed(1, 1, 0));
+        assert_ne!(trial_seed(1, 0, 0), trial_seed(2, 0, 0));
+    }
+
+    #[test]
+    fn output_dir_makes_subfolders_and_relative_links() {
+        let tmp = tempfile::tempdir().expect("tempdir");
+        let out = OutputDir::create(&tmp.path().join("x")).expect("create");
+        assert!(out.root().join("plots").is_dir() && out.root().join("images").is_dir());
+        assert_eq!(
+            out.relative(&out.plot_stem("a").with_extension("png")),
+            "plots/a.png"
+        );
+    }
+}

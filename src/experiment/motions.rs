@@ -1,0 +1,125 @@
+//! `rodlog experiment motions` (issue 9, DESIGN.md section 7, the paper's Fig. 14): hand-eye
+//! error against the number of motions (views), 12..18, ours vs ZHI.
+//!
+//! Protocol: the trials of [`super::noise`] ([`super::noise::render_trial`]: 18 seeded views
+//! per trial, rendered once); condition `k` calibrates from the first `k` views of each
+//! trial, with a fixed image noise of [`NOISE_SIGMA`] on [0, 1] intensities (the same noise
+//! realisation for every `k`, so the conditions differ only by the views used). Methods,
+//! errors and refusals as in [`super::noise`]. Paper: errors stabilise from 16 motions.
+
+use anyhow::Result;
+
+use super::noise::{
+    Cell, METHODS, SimContext, VIEWS, box_plots, error_table, refusal_table, render_trial,
+    run_methods, short_reason,
+};
+use super::progress::Progress;
+use super::report::{Report, Results};
+use super::stats::{RefusalCounter, Summary};
+use super::{Settings, trial_seed};
+
+/// Trials when `--trials` is not given (the paper's).
+pub const DEFAULT_TRIALS: usize = 100;
+/// Fewest motions.
+pub const MIN_VIEWS: usize = 12;
+/// Fixed image noise, standard deviation on [0, 1] intensities.
+pub const NOISE_SIGMA: f64 = 0.05;
+
+const STREAM_NOISE: u64 = 31;
+
+/// Runs the experiment (module docs).
+///
+/// # Errors
+/// Rendering, plotting or writing failures.
+pub fn run(settings: &Settings) -> Result<()> {
+    let trials = settings.trials_or(DEFAULT_TRIALS);
+    let ctx = SimContext::new(settings.image_scale)?;
+    let counts: Vec<usize> = (MIN_VIEWS..=VIEWS).collect();
+    let conditions: Vec<String> = counts.iter().map(|k| format!("{k}")).collect();
+    let progress = Progress::new("motions", (trials * (1 + counts.len())) as u64);
+    let mut cells = vec![vec![Cell::default(); METHODS.len()]; conditions.len()];
+    let mut refusals = RefusalCounter::default();
+    let mut seeds = Vec::with_capacity(trials);
+    for t in 0..trials {
+        let seed = trial_seed(settings.seed, 1, t as u64);
+        seeds.push(seed);
+        let trial = render_trial(&ctx, seed, VIEWS)?;
+        progress.inc(1);
+        let noise_seed = sim::rng::key(seed, STREAM_NOISE, 0);
+        for (c, k) in counts.iter().enumerate() {
+            let outcomes = run_methods(&ctx, &trial, *k, NOISE_SIGMA, noise_seed)?;
+            let cond = &conditions[c];
+            for (m, (method, out)) in outcomes.into_iter().enumerate() {
+                if let Some(e) = refusals.record(cond, method, out.map_err(|e| short_reason(&e)))
+                    && let Some(cell) = cells.get_mut(c).and_then(|v| v.get_mut(m))
+                {
+                    cell.push(&e);
+                }
+            }
+            progress.inc(1);
+        }
+    }
+    progress.finish();
+    let mut report = Report::new("Experiment motions: hand-eye error vs number of motions");
+    report.paragraph(&format!(
+        "{trials} trials; condition k uses the first k of the trial's {VIEWS} views \
+         ({}x{} renders, wrist lens), image noise sigma {NOISE_SIGMA} on [0, 1] intensities. \
+         Paper (Fig. 14): errors stable from 16 motions.",
+        ctx.camera.width, ctx.camera.height
+    ));
+    let (table, rows) = error_table(&conditions, &cells, &refusals, "motions");
+    report.table(&table);
+    box_plots(
+        settings,
+        &mut report,
+        &conditions,
+        &cells,
+        "motions (views)",
+        "motions",
+    )?;
+    // Median lines.
+    let series: Vec<viz::plots::Line> = METHODS
+        .iter()
+        .enumerate()
+        .map(|(m, name)| viz::plots::Line {
+            name: (*name).to_owned(),
+            points: counts
+                .iter()
+                .enumerate()
+                .filter_map(|(c, k)| {
+                    let s = Summary::of(&cells.get(c)?.get(m)?.e_t_mm);
+                    s.median.is_finite().then_some((*k as f64, s.median))
+                })
+                .collect(),
+            band: Vec::new(),
+        })
+        .collect();
+    let line = viz::plots::LinePlot {
+        title: "median e_t vs motions".to_owned(),
+        x_label: "motions (views)".to_owned(),
+        y_label: "median e_t (mm)".to_owned(),
+        series,
+    };
+    let files = viz::plots::write_line_plot(&line, &settings.out.plot_stem("motions_median_e_t"))?;
+    report.image(&line.title, &settings.out.relative(&files.png));
+    if refusals.total_refused() > 0 {
+        report.heading("Refusals");
+        report.table(&refusal_table(&refusals));
+    }
+    let mut results = Results::new("motions", settings.seed);
+    results.seeds = seeds;
+    results.parameter("trials", trials)?;
+    results.parameter("views", &counts)?;
+    results.parameter("noise_sigma", NOISE_SIGMA)?;
+    results.parameter("width", ctx.camera.width)?;
+    results.parameter("height", ctx.camera.height)?;
+    results.section("cells", &rows)?;
+    results.section("refusals", &refusals)?;
+    report.write(settings.out.root())?;
+    results.write(settings.out.root())?;
+    crate::cmd::print_stdout(&format!(
+        "{}",
+        settings.out.root().join("report.md").display()
+    ))?;
+    Ok(())
+}
