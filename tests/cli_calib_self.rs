@@ -7,6 +7,8 @@
 //! the calibration stage's outputs (the same X, the camera edge switched to it), replays byte
 //! for byte on one thread, and `calib self --out` writes them into a new file.
 
+#[path = "support/sim_truth.rs"]
+mod sim_truth;
 use std::path::Path;
 use std::process::Command;
 
@@ -20,17 +22,6 @@ fn rodlog(args: &[&str]) -> std::process::Output {
         .args(args)
         .output()
         .expect("run rodlog")
-}
-
-fn true_mount(rec: &Path) -> Isometry3<f64> {
-    let mut reader = McapReader::open(rec).expect("open");
-    let filter = ReadFilter::all().with_topics(["/sim/camera_mount".to_owned()]);
-    let msgs = reader.read_all(&filter).expect("read");
-    let last = msgs.last().expect("the simulator publishes the true mount");
-    let Msg::TransformStamped(t) = last.decode().expect("decode") else {
-        panic!("unexpected type on /sim/camera_mount");
-    };
-    robot::conversions::isometry_from_msg(&t.transform).expect("finite")
 }
 
 fn estimate(json: &serde_json::Value) -> Isometry3<f64> {
@@ -87,7 +78,7 @@ fn self_calibration_on_clean_calib18_recovers_the_true_mount() {
     assert_eq!(json["frame"], "tool0");
     assert_eq!(json["views"], 18);
 
-    let truth = true_mount(&rec);
+    let truth = sim_truth::true_mount(&rec);
     let est = estimate(&json);
     let err = truth.inverse() * est;
     let rot_deg = err.rotation.angle().to_degrees();

@@ -9,6 +9,8 @@
 #[path = "support/fixture.rs"]
 mod fixture;
 
+#[path = "support/reference_venv.rs"]
+mod reference_venv;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -33,27 +35,6 @@ fn rodlog(args: &[&str]) -> (String, String) {
         out.status
     );
     (stdout, stderr)
-}
-
-/// The venv's `rerun`, or `None` (with a notice) when the venv is absent.
-fn rerun_exe() -> Option<PathBuf> {
-    let dir =
-        std::env::var_os("RODLOG_REF_VENV").map_or_else(|| repo().join(".venv-ref"), PathBuf::from);
-    let exe = dir.join("bin/rerun");
-    if exe.is_file() {
-        return Some(exe);
-    }
-    let required = std::env::var("RODLOG_INTEROP_REQUIRED").is_ok_and(|v| v == "1");
-    assert!(
-        !required,
-        "RODLOG_INTEROP_REQUIRED=1 but no rerun at {} (run scripts/venv.sh)",
-        exe.display()
-    );
-    eprintln!(
-        "NOTICE: rerun check skipped: no {} (run scripts/venv.sh)",
-        exe.display()
-    );
-    None
 }
 
 /// What `rerun rrd print` says of a file: per entity, its rows and `Archetype:field` columns;
@@ -174,7 +155,9 @@ fn view_draws_every_topic_of_the_log_vocabulary() {
     assert!(stdout.contains(", 1 skipped, 0 failed"), "{stdout}");
     assert!(is_rrd(&rrd), "{} is not an .rrd", rrd.display());
 
-    let Some(rerun) = rerun_exe() else { return };
+    let Some(rerun) = reference_venv::venv_tool("rerun", "rerun check") else {
+        return;
+    };
     let p = rrd_print(&rerun, &rrd);
     let expect: &[(&str, &str)] = &[
         ("/world", "CoordinateFrame:frame"),
@@ -309,7 +292,9 @@ fn view_of_the_committed_recording_has_one_row_per_sample() {
     ]);
     assert!(stdout.contains(" 0 failed"), "{stdout}");
     assert!(is_rrd(&rrd));
-    let Some(rerun) = rerun_exe() else { return };
+    let Some(rerun) = reference_venv::venv_tool("rerun", "rerun check") else {
+        return;
+    };
     let p = rrd_print(&rerun, &rrd);
     let (joint_msgs, tf_children) = topic_counts(&mcap);
     assert!(joint_msgs > 100, "{joint_msgs}");
@@ -352,7 +337,9 @@ fn record_with_viz_writes_the_rrd_beside_the_mcap() {
         rrd.to_str().expect("utf-8"),
     ]);
     assert!(is_rrd(&rrd));
-    let Some(rerun) = rerun_exe() else { return };
+    let Some(rerun) = reference_venv::venv_tool("rerun", "rerun check") else {
+        return;
+    };
     let p = rrd_print(&rerun, &rrd);
     let (joint_msgs, _) = topic_counts(&mcap);
     assert!(joint_msgs > 10);

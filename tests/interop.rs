@@ -14,6 +14,8 @@
 #[path = "support/fixture.rs"]
 mod fixture;
 
+#[path = "support/reference_venv.rs"]
+mod reference_venv;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -22,26 +24,6 @@ use serde_json::Value;
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// The venv's directory, or `None` (with a notice) when it is absent.
-fn venv() -> Option<PathBuf> {
-    let dir =
-        std::env::var_os("RODLOG_REF_VENV").map_or_else(|| repo().join(".venv-ref"), PathBuf::from);
-    if dir.join("bin/python").exists() {
-        return Some(dir);
-    }
-    let required = std::env::var("RODLOG_INTEROP_REQUIRED").is_ok_and(|v| v == "1");
-    assert!(
-        !required,
-        "RODLOG_INTEROP_REQUIRED=1 but no venv at {} (run scripts/venv.sh)",
-        dir.display()
-    );
-    eprintln!(
-        "NOTICE: interop test skipped: no Python venv at {} (run scripts/venv.sh)",
-        dir.display()
-    );
-    None
 }
 
 fn python(venv: &Path, script: &str, args: &[&Path]) -> String {
@@ -63,7 +45,9 @@ fn python(venv: &Path, script: &str, args: &[&Path]) -> String {
 
 #[test]
 fn rodlog_recording_of_every_topic_decodes_identically_in_mcap_ros2_and_rosbags() {
-    let Some(venv) = venv() else { return };
+    let Some(venv) = reference_venv::venv_dir("interop test") else {
+        return;
+    };
     let dir = tempfile::tempdir().expect("tmp");
     fixture::write_all(dir.path()).expect("fixture");
     let out = python(
@@ -114,7 +98,9 @@ fn compare(path: &str, want: &Value, got: &Value, errors: &mut Vec<String>) {
 
 #[test]
 fn python_mcap_ros2_writer_output_is_read_with_the_values_written() {
-    let Some(venv) = venv() else { return };
+    let Some(venv) = reference_venv::venv_dir("interop test") else {
+        return;
+    };
     let dir = tempfile::tempdir().expect("tmp");
     let (rec, json) = (dir.path().join("py.mcap"), dir.path().join("py.json"));
     python(&venv, "write_ros2.py", &[&rec, &json]);
@@ -150,7 +136,9 @@ fn python_mcap_ros2_writer_output_is_read_with_the_values_written() {
 
 #[test]
 fn rerun_recognises_images_depth_camera_info_and_tf() {
-    let Some(venv) = venv() else { return };
+    let Some(venv) = reference_venv::venv_dir("interop test") else {
+        return;
+    };
     let dir = tempfile::tempdir().expect("tmp");
     fixture::write_all(dir.path()).expect("fixture");
     let rerun = venv.join("bin/rerun");

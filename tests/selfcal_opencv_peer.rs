@@ -8,34 +8,17 @@
 //! `<repo>/.venv-ref`). Without it the test prints a notice and passes, unless
 //! `RODLOG_INTEROP_REQUIRED=1` (CI), where it fails.
 
-use std::path::{Path, PathBuf};
+#[path = "support/reference_venv.rs"]
+mod reference_venv;
+#[path = "support/sim_truth.rs"]
+mod sim_truth;
+use std::path::PathBuf;
 use std::process::Command;
 
-use msgs::Msg;
 use nalgebra::{Isometry3, Matrix3, Quaternion, Rotation3, Translation3, UnitQuaternion};
-use replay::{McapReader, ReadFilter};
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn venv() -> Option<PathBuf> {
-    let dir =
-        std::env::var_os("RODLOG_REF_VENV").map_or_else(|| repo().join(".venv-ref"), PathBuf::from);
-    if dir.join("bin/python").exists() {
-        return Some(dir);
-    }
-    let required = std::env::var("RODLOG_INTEROP_REQUIRED").is_ok_and(|v| v == "1");
-    assert!(
-        !required,
-        "RODLOG_INTEROP_REQUIRED=1 but no venv at {} (run scripts/venv.sh)",
-        dir.display()
-    );
-    eprintln!(
-        "NOTICE: OpenCV peer test skipped: no Python venv at {} (run scripts/venv.sh)",
-        dir.display()
-    );
-    None
 }
 
 fn rodlog(args: &[&str]) -> std::process::Output {
@@ -44,17 +27,6 @@ fn rodlog(args: &[&str]) -> std::process::Output {
         .args(args)
         .output()
         .expect("run rodlog")
-}
-
-fn true_mount(rec: &Path) -> Isometry3<f64> {
-    let mut reader = McapReader::open(rec).expect("open");
-    let filter = ReadFilter::all().with_topics(["/sim/camera_mount".to_owned()]);
-    let msgs = reader.read_all(&filter).expect("read");
-    let last = msgs.last().expect("the simulator publishes the true mount");
-    let Msg::TransformStamped(t) = last.decode().expect("decode") else {
-        panic!("unexpected type on /sim/camera_mount");
-    };
-    robot::conversions::isometry_from_msg(&t.transform).expect("finite")
 }
 
 fn vec_f64(v: &serde_json::Value) -> Vec<f64> {
@@ -73,7 +45,9 @@ fn errors(truth: &Isometry3<f64>, est: &Isometry3<f64>) -> (f64, f64) {
 
 #[test]
 fn ours_beats_the_opencv_peer_on_a_small_clean_calib18() {
-    let Some(venv) = venv() else { return };
+    let Some(venv) = reference_venv::venv_dir("OpenCV peer test") else {
+        return;
+    };
     let tmp = tempfile::tempdir().expect("tempdir");
     let rec = tmp.path().join("small.mcap");
     let rec_s = rec.display().to_string();
@@ -95,7 +69,7 @@ fn ours_beats_the_opencv_peer_on_a_small_clean_calib18() {
         "{}",
         String::from_utf8_lossy(&run.stderr)
     );
-    let truth = true_mount(&rec);
+    let truth = sim_truth::true_mount(&rec);
 
     let ours = rodlog(&["calib", "self", &rec_s, "--json"]);
     assert!(

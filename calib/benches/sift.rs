@@ -19,8 +19,6 @@
 //! Run: `cargo bench -p calib --bench sift`.
 
 use std::hint::black_box;
-use std::path::Path;
-use std::process::Command;
 use std::time::Instant;
 
 use calib::features::GrayBuf;
@@ -34,19 +32,14 @@ use nalgebra::Matrix3;
 #[path = "common/frames.rs"]
 mod frames;
 use frames::frames;
+#[path = "common/side_by_side.rs"]
+mod side_by_side;
+use side_by_side::{OpenCvSide, json_numbers, json_points, json_rows, median, repeatability};
 
 /// Runs of the side-by-side timing loops.
 const RUNS: usize = 7;
-/// Repeatability: a keypoint is repeated when one of the other image lies within this many
-/// pixels of its mapped position.
-const REPEAT_PX: f64 = 2.5;
 /// A ratio match is correct when B's keypoint lies within this many pixels of A's mapped.
 const CORRECT_PX: f64 = 3.0;
-
-/// The warp of `common/frames.rs` (`b_from_a`).
-fn warp() -> Matrix3<f64> {
-    Matrix3::new(0.95, -0.12, 60.0, 0.10, 0.97, -20.0, 2e-5, -1e-5, 1.0)
-}
 
 fn seq_params() -> SiftParams {
     SiftParams {
@@ -89,61 +82,6 @@ fn sift(c: &mut Criterion) {
     compare_with_opencv(&a, &b);
 }
 
-/// Repeatability of `ka` (image A) and `kb` (image B) under `b_from_a`: repeated keypoints
-/// over the smaller of the two counts in the common region; also returns those counts.
-fn repeatability(
-    ka: &[(f64, f64)],
-    kb: &[(f64, f64)],
-    h: &Matrix3<f64>,
-    w: f64,
-    hgt: f64,
-) -> (f64, usize, usize) {
-    let Some(hinv) = h.try_inverse() else {
-        return (0.0, 0, 0);
-    };
-    let inside = |(x, y): (f64, f64)| x >= 0.0 && y >= 0.0 && x < w && y < hgt;
-    let a_common: Vec<(f64, f64)> = ka
-        .iter()
-        .map(|p| apply_homography(h, p.0, p.1))
-        .filter(|p| inside(*p))
-        .collect();
-    let b_common: Vec<(f64, f64)> = kb
-        .iter()
-        .copied()
-        .filter(|p| inside(*p) && inside(apply_homography(&hinv, p.0, p.1)))
-        .collect();
-    let cell = REPEAT_PX;
-    let gw = (w / cell).ceil() as usize + 1;
-    let gh = (hgt / cell).ceil() as usize + 1;
-    let mut grid: Vec<Vec<(f64, f64)>> = vec![Vec::new(); gw * gh];
-    for p in &b_common {
-        grid[(p.1 / cell) as usize * gw + (p.0 / cell) as usize].push(*p);
-    }
-    let mut repeated = 0usize;
-    for (x, y) in &a_common {
-        let (cx, cy) = ((x / cell) as isize, (y / cell) as isize);
-        let mut hit = false;
-        for dy in -1..=1 {
-            for dx in -1..=1 {
-                let (gx, gy) = (cx + dx, cy + dy);
-                if gx < 0 || gy < 0 || gx as usize >= gw || gy as usize >= gh {
-                    continue;
-                }
-                hit |= grid[gy as usize * gw + gx as usize]
-                    .iter()
-                    .any(|q| (q.0 - x).hypot(q.1 - y) <= REPEAT_PX);
-            }
-        }
-        repeated += usize::from(hit);
-    }
-    let denom = a_common.len().min(b_common.len()).max(1);
-    (
-        repeated as f64 / denom as f64,
-        a_common.len(),
-        b_common.len(),
-    )
-}
-
 /// Ratio matches `(xa, ya, xb, yb)` within [`CORRECT_PX`] of the warp.
 fn correct(pairs: &[[f64; 4]], h: &Matrix3<f64>) -> usize {
     pairs
@@ -157,11 +95,6 @@ fn correct(pairs: &[[f64; 4]], h: &Matrix3<f64>) -> usize {
 
 fn xy(k: &[SiftKeypoint]) -> Vec<(f64, f64)> {
     k.iter().map(|k| (f64::from(k.x), f64::from(k.y))).collect()
-}
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
 }
 
 const OPENCV_SCRIPT: &str = r#"
@@ -195,23 +128,9 @@ print(json.dumps({
 "#;
 
 fn compare_with_opencv(a: &GrayBuf, b: &GrayBuf) {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let dir = root.join("target/sift-bench");
-    let py = root.join(".venv-ref/bin/python");
-    let (pa, pb) = (dir.join("a.png"), dir.join("b.png"));
-    let saved = std::fs::create_dir_all(&dir).is_ok()
-        && [(a, &pa), (b, &pb)].iter().all(|(img, p)| {
-            image::GrayImage::from_raw(img.width as u32, img.height as u32, img.data.clone())
-                .is_some_and(|g| g.save(p).is_ok())
-        });
-    if !saved || !py.exists() {
-        eprintln!(
-            "OpenCV comparison skipped (no {} or cannot write {})",
-            py.display(),
-            dir.display()
-        );
+    let Some(opencv) = OpenCvSide::prepare("sift-bench", a, b) else {
         return;
-    }
+    };
     // Our side first (sequential), then OpenCV right after: the same machine load.
     let mut ours = Vec::new();
     for _ in 0..RUNS {
@@ -237,53 +156,26 @@ fn compare_with_opencv(a: &GrayBuf, b: &GrayBuf) {
             [ka.x, ka.y, kb.x, kb.y].map(f64::from)
         })
         .collect();
-    let out = Command::new(&py)
-        .arg("-c")
-        .arg(OPENCV_SCRIPT)
-        .arg(&pa)
-        .arg(&pb)
-        .arg(RUNS.to_string())
-        .output();
-    let Ok(out) = out else {
-        eprintln!("OpenCV comparison skipped: cannot run {}", py.display());
+    let Some(v) = opencv.run(OPENCV_SCRIPT, RUNS) else {
         return;
     };
-    let Ok(v) = serde_json::from_slice::<serde_json::Value>(&out.stdout) else {
-        eprintln!(
-            "OpenCV comparison failed: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        return;
-    };
-    let rows = |k: &str, n: usize| -> Vec<Vec<f64>> {
-        v[k].as_array()
-            .map(|a| {
-                a.iter()
-                    .filter_map(|p| {
-                        let r: Vec<f64> = p.as_array()?.iter().filter_map(|x| x.as_f64()).collect();
-                        (r.len() == n).then_some(r)
-                    })
-                    .collect()
-            })
-            .unwrap_or_default()
-    };
-    let pts = |k: &str| -> Vec<(f64, f64)> { rows(k, 2).iter().map(|r| (r[0], r[1])).collect() };
-    let times = |k: &str| -> Vec<f64> {
-        v[k].as_array()
-            .map(|a| a.iter().filter_map(serde_json::Value::as_f64).collect())
-            .unwrap_or_default()
-    };
-    let cv_pairs: Vec<[f64; 4]> = rows("pairs", 4)
+    let cv_pairs: Vec<[f64; 4]> = json_rows(&v, "pairs", 4)
         .iter()
         .map(|r| [r[0], r[1], r[2], r[3]])
         .collect();
-    let (cva, cvb) = (pts("a"), pts("b"));
+    let (cva, cvb) = (json_points(&v, "a"), json_points(&v, "b"));
     let (w, h) = (a.width as f64, a.height as f64);
-    let hb = warp();
+    let hb = frames::warp();
     let (rep_ours, ca, cb) = repeatability(&xy(&fa.keypoints), &xy(&fb.keypoints), &hb, w, h);
     let (rep_cv, cva_c, cvb_c) = repeatability(&cva, &cvb, &hb, w, h);
-    let (t_ours, t_cv) = (median(&mut ours), median(&mut times("detect_ms")));
-    let (m_ours, m_cv) = (median(&mut ours_match), median(&mut times("knn_ms")));
+    let (t_ours, t_cv) = (
+        median(&mut ours),
+        median(&mut json_numbers(&v, "detect_ms")),
+    );
+    let (m_ours, m_cv) = (
+        median(&mut ours_match),
+        median(&mut json_numbers(&v, "knn_ms")),
+    );
     let (ok_ours, ok_cv) = (correct(&our_pairs, &hb), correct(&cv_pairs, &hb));
     let rate = |ok: usize, n: usize| ok as f64 / n.max(1) as f64;
     println!(

@@ -29,8 +29,8 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::noise::{
-    Cell, METHODS, SimContext, VIEWS, box_plots, error_table, refusal_table, render_trial,
-    run_methods, short_reason,
+    Cell, METHODS, SimContext, VIEWS, box_plots, error_table, record_outcomes, refusal_table,
+    render_trial, run_methods,
 };
 use super::progress::Progress;
 use super::report::{Report, Results, Table, fmt_num, fmt_pct};
@@ -117,13 +117,7 @@ pub fn run(settings: &Settings) -> Result<()> {
         let trial = render_trial(&ctx, seed, VIEWS)?;
         progress.inc(1);
         let outcomes = run_methods(&ctx, &trial, VIEWS, 0.0, 0)?;
-        for (m, (method, out)) in outcomes.into_iter().enumerate() {
-            if let Some(e) = refusals.record(&cond, method, out.map_err(|e| short_reason(&e)))
-                && let Some(cell) = cells.first_mut().and_then(|v| v.get_mut(m))
-            {
-                cell.push(&e);
-            }
-        }
+        record_outcomes(&cond, outcomes, &mut refusals, &mut cells[0]);
         progress.inc(1);
     }
     let conditions = vec![cond.clone()];

@@ -10,8 +10,8 @@
 use anyhow::Result;
 
 use super::noise::{
-    Cell, METHODS, SimContext, VIEWS, box_plots, error_table, refusal_table, render_trial,
-    run_methods, short_reason,
+    Cell, METHODS, SimContext, VIEWS, box_plots, error_table, record_outcomes, refusal_table,
+    render_trial, run_methods,
 };
 use super::progress::Progress;
 use super::report::{Report, Results};
@@ -48,14 +48,7 @@ pub fn run(settings: &Settings) -> Result<()> {
         let noise_seed = sim::rng::key(seed, STREAM_NOISE, 0);
         for (c, k) in counts.iter().enumerate() {
             let outcomes = run_methods(&ctx, &trial, *k, NOISE_SIGMA, noise_seed)?;
-            let cond = &conditions[c];
-            for (m, (method, out)) in outcomes.into_iter().enumerate() {
-                if let Some(e) = refusals.record(cond, method, out.map_err(|e| short_reason(&e)))
-                    && let Some(cell) = cells.get_mut(c).and_then(|v| v.get_mut(m))
-                {
-                    cell.push(&e);
-                }
-            }
+            record_outcomes(&conditions[c], outcomes, &mut refusals, &mut cells[c]);
             progress.inc(1);
         }
     }

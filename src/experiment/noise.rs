@@ -333,6 +333,21 @@ pub fn run_methods(
     Ok(vec![("ours-rgbd", a), ("ours-mono", b), ("zhi", c)])
 }
 
+/// Books one condition's outcomes: every attempt and refusal into `refusals`, the errors of
+/// the methods that answered into their cells (`cells[m]` is [`METHODS`]`[m]`'s).
+pub fn record_outcomes(
+    condition: &str,
+    outcomes: MethodOutcomes,
+    refusals: &mut RefusalCounter,
+    cells: &mut [Cell],
+) {
+    for ((method, out), cell) in outcomes.into_iter().zip(cells.iter_mut()) {
+        if let Some(e) = refusals.record(condition, method, out.map_err(|e| short_reason(&e))) {
+            cell.push(&e);
+        }
+    }
+}
+
 /// Refusal reason for the counters: the first 80 characters of the refusal text.
 pub fn short_reason(text: &str) -> String {
     text.chars().take(80).collect()
@@ -523,14 +538,7 @@ pub fn run(settings: &Settings) -> Result<()> {
         for (c, sigma) in NOISE_SIGMAS.iter().enumerate() {
             let noise_seed = sim::rng::key(seed, STREAM_NOISE, c as u64);
             let outcomes = run_methods(&ctx, &trial, VIEWS, *sigma, noise_seed)?;
-            let cond = &conditions[c];
-            for (m, (method, out)) in outcomes.into_iter().enumerate() {
-                if let Some(e) = refusals.record(cond, method, out.map_err(|e| short_reason(&e)))
-                    && let Some(cell) = cells.get_mut(c).and_then(|v| v.get_mut(m))
-                {
-                    cell.push(&e);
-                }
-            }
+            record_outcomes(&conditions[c], outcomes, &mut refusals, &mut cells[c]);
             progress.inc(1);
         }
     }

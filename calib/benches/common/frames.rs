@@ -9,6 +9,11 @@ use calib::features::command::{crop_resize, load_gray};
 use calib::features::synth::{textured_image, warp_homography};
 use nalgebra::Matrix3;
 
+/// The homography `b_from_a` from frame A to frame B.
+pub fn warp() -> Matrix3<f64> {
+    Matrix3::new(0.95, -0.12, 60.0, 0.10, 0.97, -20.0, 2e-5, -1e-5, 1.0)
+}
+
 /// Frame A and its warp B, both 1280x1024.
 pub fn frames() -> (GrayBuf, GrayBuf) {
     let shecar = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/shecar/00.jpg");
@@ -23,7 +28,6 @@ pub fn frames() -> (GrayBuf, GrayBuf) {
             textured_image(1280, 1024, 1)
         }
     };
-    let hb = Matrix3::new(0.95, -0.12, 60.0, 0.10, 0.97, -20.0, 2e-5, -1e-5, 1.0);
-    let b = warp_homography(&a, &hb, 1280, 1024, 0).unwrap_or_else(|| a.clone());
+    let b = warp_homography(&a, &warp(), 1280, 1024, 0).unwrap_or_else(|| a.clone());
     (a, b)
 }
