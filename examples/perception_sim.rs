@@ -50,12 +50,13 @@ use sim::render::{CameraIntrinsics, LightConditions, SensorParams, render_rgbd_w
 use sim::scenario::DepthEncoding;
 use sim::scene::substation::SubstationBuilder;
 
-/// Range of the arm base's height above the ground with the lift raised (m), drawn per
-/// seed: the robot side of the approach. The wire hangs at ~5.3-5.5 m, 1.3 m north of the
-/// robot spot, so the camera looks at it from 10-60 deg below the horizontal, from the
-/// south: at noon the sun (62 deg high, due south) lights the part of the conductor the
-/// camera sees when the view is flat (depth wash-out), and not when it looks up steeply.
-pub const ARM_BASE_HEIGHT_RANGE_M: (f64, f64) = (3.4, 5.2);
+/// Range of the height above the ground of the point the camera looks from (m), drawn per
+/// seed: the robot side of the approach. The wire hangs at ~3.7-3.9 m, 1.3 m north of the
+/// robot spot, so the camera looks at it from level (the task's look, `control::tasks::poses`)
+/// to 50 deg below the horizontal, from the south: at noon the sun (62 deg high, due south)
+/// lights the part of the conductor the camera sees when the view is flat (depth wash-out),
+/// and not when it looks up steeply.
+pub const ARM_BASE_HEIGHT_RANGE_M: (f64, f64) = (2.2, 3.8);
 /// Largest prior offset per axis (m): the panoramic stage is a few cm off.
 pub const PRIOR_OFFSET_M: f64 = 0.03;
 /// Largest tilt of the prior direction (deg).
@@ -339,8 +340,8 @@ fn ray_table(camera: &PinholeCamera) -> Result<std::sync::Arc<RayTable>, Percept
 }
 
 /// Height of the arm base above the ground for the handle capture (m): the handle of a
-/// hung rod is ~1.7-1.9 m below the wire, so ~3.5 m up.
-pub const ARM_BASE_LOW_M: f64 = 3.0;
+/// hung rod is ~1.8 m below the wire, so ~1.9-2.1 m up.
+pub const ARM_BASE_LOW_M: f64 = 1.4;
 /// Standoff for the handle (m): the 0.25 m handle fills the 0.73 z wide view at z = 0.34 m,
 /// so the handle is seen from 0.4-0.6 m.
 pub const HANDLE_STANDOFF_RANGE_M: (f64, f64) = (0.4, 0.6);

@@ -9,6 +9,7 @@ use clap::{Parser, Subcommand};
 mod cmd;
 mod experiment;
 mod import;
+mod judge;
 
 /// Substation grounding-rod robot: log-centric hand-eye self-calibration and tasks.
 #[derive(Debug, Parser)]
@@ -39,6 +40,8 @@ enum Command {
     /// Check a recording: `motion` (limits, speeds, accelerations, collisions).
     #[command(subcommand)]
     Check(cmd::check::CheckCommand),
+    /// Print a recording's text log (`/rosout`: stages, drivers, task events) in time order.
+    Log(cmd::log::LogArgs),
 }
 
 fn main() -> ExitCode {
@@ -52,6 +55,7 @@ fn main() -> ExitCode {
         Command::Experiment(args) => cmd::experiment::run(&args),
         Command::View(args) => cmd::view::run(&args),
         Command::Check(command) => cmd::check::run(&command),
+        Command::Log(args) => cmd::log::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

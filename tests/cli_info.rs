@@ -65,9 +65,10 @@ fn info_describes_channels_time_chunks_metadata_and_compression() {
     let out = rodlog(&["info", path.to_str().expect("utf-8")]);
     assert!(out.status.success());
     let text = String::from_utf8_lossy(&out.stdout);
+    let messages = format!("messages:    {}", msgs::topics::registry().len());
     for needle in [
         "profile:     ros2",
-        "messages:    30",
+        messages.as_str(),
         "zstd: [",
         "/camera/color/image_raw",
         "producer=camera",

@@ -217,7 +217,8 @@ fn view_draws_every_topic_of_the_log_vocabulary() {
         ("/world/camera/wrist/color", "Image:buffer", 1),
         ("/world/perception/roi_cloud", "Points3D:positions", 1),
         ("/plots/joints_rad/arm_shoulder_joint", "Scalars:scalars", 1),
-        ("/log/commands", "TextLog:text", 5), // trajectory, lift, base goal, clamp, trigger
+        // trajectory, lift, base goal, clamp, trigger, calibration command
+        ("/log/commands", "TextLog:text", 6),
         ("/matches/inliers", "LineStrips2D:strips", 1),
     ] {
         assert_eq!(p.rows_of(entity, column), rows, "{entity} {column}");

@@ -4,3 +4,4 @@ pub mod motion;
 pub mod perception;
 pub mod script;
 pub mod stages;
+pub mod tasks;

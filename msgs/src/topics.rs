@@ -49,6 +49,12 @@ pub const PERCEPTION_TARGET_POSE: &str = "/perception/target_pose";
 pub const CALIBRATION_MATCHES: &str = "/calibration/matches";
 /// Hand-eye calibration results.
 pub const CALIBRATION_HAND_EYE: &str = "/calibration/hand_eye";
+/// Requests to the calibration stage (std_msgs/String): `check` (the next captures are drift
+/// check views), `collect` (the next captures are calibration views), `solve` (check or
+/// calibrate the batch now), `cancel`. The stage answers on [`TASK_EVENT`] (task
+/// `calibration`). A project topic beside DESIGN.md s3's: the task stages' seam to
+/// self-maintenance.
+pub const CALIBRATION_COMMAND: &str = "/calibration/command";
 /// Task and safety events.
 pub const TASK_EVENT: &str = "/task/event";
 /// Wind speed, 3-s mean (m/s), as measured by the anemometer.
@@ -69,6 +75,8 @@ pub const SIM_WIND: &str = "/sim/wind";
 pub const SIM_ILLUMINANCE: &str = "/sim/illuminance";
 /// Simulator truth: rod state (`on_rack`, `in_gripper`, `hooked`, `clamped`, `dropped`).
 pub const SIM_ROD_STATE: &str = "/sim/rod_state";
+/// Simulator truth: `map_from_base_link` of the base (odometry drifts; this does not).
+pub const SIM_BASE_POSE: &str = "/sim/base_pose";
 
 /// Prefix of simulator ground-truth topics (never an input to calibration, perception or
 /// control).
@@ -177,6 +185,7 @@ static REGISTRY: &[TopicSpec] = &[
         rodlog_msgs::HandEyeCalibration::TYPE_NAME,
         false,
     ),
+    spec(CALIBRATION_COMMAND, std_msgs::String::TYPE_NAME, false),
     spec(TASK_EVENT, rodlog_msgs::TaskEvent::TYPE_NAME, false),
     spec(ENV_WIND, std_msgs::Float64::TYPE_NAME, false),
     spec(ENV_ILLUMINANCE, sensor_msgs::Illuminance::TYPE_NAME, false),
@@ -195,6 +204,7 @@ static REGISTRY: &[TopicSpec] = &[
     spec(SIM_WIND, std_msgs::Float64::TYPE_NAME, false),
     spec(SIM_ILLUMINANCE, sensor_msgs::Illuminance::TYPE_NAME, false),
     spec(SIM_ROD_STATE, std_msgs::String::TYPE_NAME, false),
+    spec(SIM_BASE_POSE, geometry_msgs::PoseStamped::TYPE_NAME, false),
 ];
 
 /// Every topic of DESIGN.md section 3, each once.
@@ -234,7 +244,7 @@ mod tests {
                 t.type_name
             );
         }
-        assert_eq!(reg.len(), 30);
+        assert_eq!(reg.len(), 32);
     }
 
     #[test]

@@ -25,7 +25,8 @@
 //!   up to 0.10 m/s and 0.20 m/s^2 (a scissor/column lift carrying ~60 kg).
 //! - `arm_base_link` is 0.03 m above `lift_link` (mounting plate), axes aligned with the base.
 //! - `panoramic_optical_frame` is on a mast at (0.35, 0, 0.90) m in `base_link`, looking forward
-//!   and pitched 30 deg up (towards the wires), OpenCV optical axes.
+//!   and pitched 45 deg up (towards the wires: a conductor 2.8 m above the mast and 1 m ahead
+//!   is ~70 deg up, inside its view), OpenCV optical axes.
 //! - `rod_link` is not part of the robot: the rod is a free body (on the rack, in the gripper, on
 //!   the wire), published by whoever knows its pose; it is not in the URDF.
 
@@ -48,8 +49,8 @@ pub const LIFT_ACCEL_MAX_M_S2: f64 = 0.20;
 pub const ARM_MOUNT_HEIGHT_M: f64 = 0.03;
 /// Position of the panoramic camera in `base_link` (m).
 pub const PANORAMIC_POSITION_M: [f64; 3] = [0.35, 0.0, 0.90];
-/// Upward pitch of the panoramic camera's optical axis (rad): 30 deg.
-pub const PANORAMIC_PITCH_UP_RAD: f64 = std::f64::consts::FRAC_PI_6;
+/// Upward pitch of the panoramic camera's optical axis (rad): 45 deg.
+pub const PANORAMIC_PITCH_UP_RAD: f64 = std::f64::consts::FRAC_PI_4;
 
 /// One parent -> child edge of the frame tree with its current transform.
 #[derive(Debug, Clone, PartialEq)]
@@ -351,7 +352,9 @@ mod tests {
         let r = model.base_from_panoramic_optical.rotation;
         assert_relative_eq!((r * Vector3::x()), -Vector3::y(), epsilon = 1e-12);
         let forward = r * Vector3::z();
-        assert!(forward.x > 0.8 && forward.z > 0.4);
+        let pitch = forward.z.atan2(forward.x);
+        assert_relative_eq!(pitch, PANORAMIC_PITCH_UP_RAD, epsilon = 1e-12);
+        assert!(forward.y.abs() < 1e-12, "looks straight ahead");
         assert!(
             (r * Vector3::y()).z < 0.0,
             "image down points towards the ground"

@@ -13,6 +13,7 @@
 //! | [`kinematics`] | base (planar) + lift (prismatic) + arm: every frame, mount numbers |
 //! | [`names`] | frame and joint names (DESIGN.md s3) |
 //! | [`camera_mount`] | the wrist camera's nominal mount `tool0_from_camera` |
+//! | [`grounding_rod`] | the rod (the robot's tool): dimensions, grasp, hook window, clamp travel |
 //! | [`urdf`] | the generated URDF |
 //! | [`tf_buffer`] | TF tree with interpolation |
 //! | [`robot_state`] | the `/joint_states` -> `/tf` stage |
@@ -49,6 +50,7 @@ pub mod aubo_i10;
 pub mod camera_mount;
 pub mod conversions;
 pub mod dh;
+pub mod grounding_rod;
 pub mod ik;
 pub mod kinematics;
 pub mod limits;

@@ -77,6 +77,25 @@ pub fn wrap_to_pi(angle_rad: f64) -> f64 {
     a
 }
 
+/// `world_from_camera` of a camera at `eye` looking at `target` with the image's up side
+/// towards `up` (OpenCV optical axes: z = forward, x = forward x up (right), y = z x x
+/// (down)). `None` if `eye == target` or the view direction is parallel to `up`.
+#[must_use]
+pub fn world_from_camera_looking_at(
+    eye: &nalgebra::Point3<f64>,
+    target: &nalgebra::Point3<f64>,
+    up: &nalgebra::Vector3<f64>,
+) -> Option<Isometry3<f64>> {
+    let z = (target - eye).try_normalize(1e-12)?;
+    let x = z.cross(up).try_normalize(1e-12)?;
+    let y = z.cross(&x);
+    let r = nalgebra::Rotation3::from_matrix_unchecked(nalgebra::Matrix3::from_columns(&[x, y, z]));
+    Some(Isometry3::from_parts(
+        nalgebra::Translation3::from(eye.coords),
+        UnitQuaternion::from_rotation_matrix(&r),
+    ))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -22,10 +22,7 @@ use crate::rng::{self, streams};
 
 /// Producer of the clamp's joint state.
 pub const CLAMP_DRIVER: &str = "clamp_driver";
-/// Full travel of the lead screw (m).
-pub const CLAMP_TRAVEL_M: f64 = 0.05;
-/// Travel at which the jaw meets a 26.8 mm conductor seated in the hook (m).
-pub const WIRE_CONTACT_TRAVEL_M: f64 = 0.045;
+pub use robot::grounding_rod::{CLAMP_TRAVEL_M, WIRE_CONTACT_TRAVEL_M};
 /// Screw speed limit (m/s).
 pub const CLAMP_SPEED_M_S: f64 = 0.005;
 /// Screw acceleration limit (m/s^2).

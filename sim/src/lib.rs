@@ -95,4 +95,10 @@ pub enum SimError {
     /// A driver failed or time went backwards.
     #[error(transparent)]
     Driver(#[from] msgs::DriverError),
+    /// The scenario asks for something the bay's layout cannot give.
+    #[error("layout: {reason}")]
+    Layout {
+        /// What is missing.
+        reason: String,
+    },
 }

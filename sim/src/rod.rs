@@ -2,10 +2,12 @@
 //! tolerances of DESIGN.md s6 (shared with the controller through these pure functions).
 //!
 //! # Frames
-//! Rod frame (see [`crate::scene::grounding_rod`]): origin at the bottom of the handle, `z`
-//! along the rod, `x` towards the open side of the hook. The **hook frame** sits at
-//! [`HOOK_CENTER_IN_ROD`] with the rod's axes: the wire seats along its `y` axis; the hook is
-//! put onto the wire by moving along `-x` (the approach), and "across the wire" is `z`.
+//! The rod's frames, grasp and tolerances are the robot crate's ([`robot::grounding_rod`],
+//! re-exported here): the controller plans with the same numbers the world decides with.
+//! Rod frame: origin at the bottom of the handle, `z` along the rod, `x` towards the open
+//! side of the hook. The **hook frame** sits at [`HOOK_CENTER_IN_ROD`] with the rod's axes:
+//! the wire seats along its `y` axis; the hook is put onto the wire by moving the rod along
+//! `+x` (the wire enters the mouth), and "across the wire" is `z`.
 //! The end effector holds the handle with `tool0` at [`rod_from_tool0_grasp`]: 60 mm from the
 //! rod axis on the `-x` side, halfway up the handle, `tool0 z` pointing at the rod axis.
 //!
@@ -35,141 +37,15 @@
 //!   45 deg off in yaw falls off (the only failure modelled).
 
 use msgs::RobotTime;
-use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
+#[cfg(test)]
+use nalgebra::UnitQuaternion;
+use nalgebra::{Isometry3, Point3, Vector3};
 
-pub use crate::scene::grounding_rod::HOOK_CENTER_IN_ROD;
-
-/// Grasp position tolerance (m).
-pub const GRASP_TOLERANCE_M: f64 = 0.005;
-/// Grasp and rack angle tolerance (rad): 5 deg.
-pub const GRASP_TOLERANCE_RAD: f64 = 5.0 * std::f64::consts::PI / 180.0;
-/// Rack position tolerance (m).
-pub const RACK_TOLERANCE_M: f64 = 0.01;
-/// Lift along the rack's z that takes a held rod out of the rack (m).
-pub const RACK_LIFT_OUT_M: f64 = 0.3;
-/// Tool distance from the grasp pose that releases a held, constrained rod (m).
-pub const RELEASE_DISTANCE_M: f64 = 0.02;
-/// A held clamped rod unclamps when the lead screw opens below this travel (m): 1 mm off the
-/// wire contact.
-pub const UNCLAMP_TRAVEL_M: f64 = crate::clamp::WIRE_CONTACT_TRAVEL_M - 0.001;
-/// Yaw beyond which a hook inside the window throws the rod off (rad): 45 deg.
-pub const DROP_YAW_RAD: f64 = std::f64::consts::FRAC_PI_4;
-
-/// The capture window of the hook.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HookTolerance {
-    /// Half width across the wire (m).
-    pub across_m: f64,
-    /// Half width along the approach (m).
-    pub along_approach_m: f64,
-    /// Half width in yaw (rad).
-    pub yaw_rad: f64,
-}
-
-impl HookTolerance {
-    /// DESIGN.md s6: +-15 mm across, +-10 mm along the approach, +-5 deg yaw.
-    pub const DESIGN: Self = Self {
-        across_m: 0.015,
-        along_approach_m: 0.010,
-        yaw_rad: 5.0 * std::f64::consts::PI / 180.0,
-    };
-}
-
-/// Where the wire is relative to the hook.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HookOffset {
-    /// Wire axis offset across (hook `z`, m).
-    pub across_m: f64,
-    /// Wire axis offset along the approach (hook `x`, m).
-    pub along_approach_m: f64,
-    /// Yaw of the wire direction from the hook's `y` about its `z` (rad, folded to
-    /// `[-pi/2, pi/2]`: the wire has no direction).
-    pub yaw_rad: f64,
-}
-
-/// Outcome of [`hook_decision`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum HookDecision {
-    /// Inside all three tolerances: the wire seats in the hook.
-    Captured,
-    /// Outside the window: nothing happens.
-    Missed,
-    /// Inside the position window but badly twisted: the rod is knocked off.
-    Knocked,
-}
-
-/// `rod_from_hook`: the hook frame.
-#[must_use]
-pub fn rod_from_hook() -> Isometry3<f64> {
-    let [x, y, z] = HOOK_CENTER_IN_ROD;
-    Isometry3::translation(x, y, z)
-}
-
-/// `rod_from_tool0` of a held rod (see the module docs).
-#[must_use]
-pub fn rod_from_tool0_grasp() -> Isometry3<f64> {
-    // tool0 z = rod x, tool0 x = rod z, tool0 y = -rod y.
-    let r = Matrix3::new(0.0, 0.0, 1.0, 0.0, -1.0, 0.0, 1.0, 0.0, 0.0);
-    Isometry3::from_parts(
-        Translation3::new(-0.06, 0.0, 0.125),
-        UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(r)),
-    )
-}
-
-/// The wire's offset in the hook frame from a point on its axis and its unit direction (both
-/// in the world).
-#[must_use]
-pub fn hook_offset(
-    world_from_hook: &Isometry3<f64>,
-    wire_point: &Point3<f64>,
-    wire_dir: &Vector3<f64>,
-) -> HookOffset {
-    let hook_from_world = world_from_hook.inverse();
-    let p = hook_from_world * wire_point;
-    let d = hook_from_world.rotation * wire_dir;
-    // Closest point of the (locally straight) wire to the hook centre.
-    let dn = d.try_normalize(1e-12).unwrap_or_else(Vector3::y);
-    let c = p.coords - dn * p.coords.dot(&dn);
-    let mut yaw = d.x.atan2(d.y);
-    if yaw > std::f64::consts::FRAC_PI_2 {
-        yaw -= std::f64::consts::PI;
-    } else if yaw < -std::f64::consts::FRAC_PI_2 {
-        yaw += std::f64::consts::PI;
-    }
-    HookOffset {
-        across_m: c.z,
-        along_approach_m: c.x,
-        yaw_rad: yaw,
-    }
-}
-
-/// The tolerance decision (shared by simulator and controller).
-#[must_use]
-pub fn hook_decision(offset: &HookOffset, tol: &HookTolerance) -> HookDecision {
-    let in_position = offset.across_m.abs() <= tol.across_m
-        && offset.along_approach_m.abs() <= tol.along_approach_m;
-    if !in_position {
-        HookDecision::Missed
-    } else if offset.yaw_rad.abs() <= tol.yaw_rad {
-        HookDecision::Captured
-    } else if offset.yaw_rad.abs() > DROP_YAW_RAD {
-        HookDecision::Knocked
-    } else {
-        HookDecision::Missed
-    }
-}
-
-/// Whether `world_from_tool0` is within the grasp tolerance of `world_from_target`.
-#[must_use]
-pub fn within(
-    world_from_tool0: &Isometry3<f64>,
-    world_from_target: &Isometry3<f64>,
-    tol_m: f64,
-    tol_rad: f64,
-) -> bool {
-    let d = world_from_target.inverse() * world_from_tool0;
-    d.translation.vector.norm() <= tol_m && d.rotation.angle() <= tol_rad
-}
+pub use robot::grounding_rod::{
+    DROP_YAW_RAD, GRASP_TOLERANCE_M, GRASP_TOLERANCE_RAD, HOOK_CENTER_IN_ROD, HookDecision,
+    HookOffset, HookTolerance, RACK_LIFT_OUT_M, RACK_TOLERANCE_M, RELEASE_DISTANCE_M,
+    UNCLAMP_TRAVEL_M, hook_decision, hook_offset, rod_from_hook, rod_from_tool0_grasp, within,
+};
 
 /// The rod's state (`/sim/rod_state` strings).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -238,6 +114,19 @@ impl Rod {
             state: RodState::OnRack,
             held: false,
             world_from_rod: world_from_rod_stored,
+            world_from_rod_stored,
+            changed_at: RobotTime::ZERO,
+        }
+    }
+
+    /// A rod clamped on the wire at `world_from_rod`, not held (its rack pose is
+    /// `world_from_rod_stored`).
+    #[must_use]
+    pub fn clamped(world_from_rod_stored: Isometry3<f64>, world_from_rod: Isometry3<f64>) -> Self {
+        Self {
+            state: RodState::Clamped,
+            held: false,
+            world_from_rod,
             world_from_rod_stored,
             changed_at: RobotTime::ZERO,
         }

@@ -27,6 +27,9 @@
 //! home_rad = [..6 values..]   # arm joints at t = 0
 //! lift_m = 0.0                # lift at t = 0
 //! odometry_drift = true
+//! base_start = [12.0, -3.9, 1.5708]  # base pose at t = 0 (map x, y, yaw); default the working spot
+//! rod = "rack"                # the rod at t = 0: "rack" (stored) or "hung" (clamped on the
+//!                             # target wire at the hanging point, as a hang leaves it)
 //!
 //! [camera]                    # wrist RGB-D camera
 //! scale = 1.0                 # 0.25 -> 320x256
@@ -117,6 +120,20 @@ pub struct RobotConfig {
     pub lift_m: f64,
     /// Odometry drift noise. Default true.
     pub odometry_drift: bool,
+    /// Base pose at t = 0 (`map` x, y in m, yaw in rad). Default `None`: the working spot.
+    pub base_start: Option<[f64; 3]>,
+    /// Where the rod is at t = 0. Default on the rack.
+    pub rod: RodStart,
+}
+
+/// Where the grounding rod is at t = 0.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RodStart {
+    /// Stored on the rack.
+    Rack,
+    /// Clamped on the target wire at the hanging point, hook mouth facing away from the
+    /// working spot (as the hang flow leaves it).
+    Hung,
 }
 
 /// Depth image encoding of the wrist camera.
@@ -483,6 +500,8 @@ impl Scenario {
             "home_rad",
             "lift_m",
             "odometry_drift",
+            "base_start",
+            "rod",
         ])?;
         let robot = RobotConfig {
             perturbation: r.bool_or("perturbation", true)?,
@@ -491,6 +510,21 @@ impl Scenario {
             home_rad: r.array_or("home_rad", DEFAULT_HOME_RAD)?,
             lift_m: r.f64_in("lift_m", 0.0, 0.0, robot::kinematics::LIFT_TRAVEL_M)?,
             odometry_drift: r.bool_or("odometry_drift", true)?,
+            base_start: match r.get("base_start") {
+                None => None,
+                Some(_) => Some(r.array_or("base_start", [0.0; 3])?),
+            },
+            rod: match r.str_or("rod", "rack")?.as_str() {
+                "rack" => RodStart::Rack,
+                "hung" => RodStart::Hung,
+                other => {
+                    return Err(field(
+                        origin,
+                        "robot.rod",
+                        format!("{other:?}: expected \"rack\" or \"hung\""),
+                    ));
+                }
+            },
         };
         let limits = robot::aubo_i10::aubo_i10_limits();
         for (i, (q, l)) in robot.home_rad.iter().zip(&limits).enumerate() {

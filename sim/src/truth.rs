@@ -9,6 +9,7 @@
 //! | `/sim/wind` | Float64 | 1 Hz | true 3-s mean wind (m/s) |
 //! | `/sim/illuminance` | Illuminance | 1 Hz | true global horizontal illuminance (lx), variance 0 |
 //! | `/sim/rod_state` | String | 1 Hz and on change | `on_rack`, `in_gripper`, `hooked`, `clamped`, `dropped` |
+//! | `/sim/base_pose` | PoseStamped (`map`) | 10 Hz | true `map_from_base_link` (odometry drifts away from it) |
 
 use msgs::builtin_interfaces::Time;
 use msgs::geometry_msgs::{Point, Pose, PoseStamped, Quaternion};
@@ -20,7 +21,7 @@ use crate::scene::Catenary;
 /// Producer of the truth topics.
 pub const SIM: &str = "sim";
 /// Position of the handle's reference point in the rod frame (m).
-pub const HANDLE_CENTER_IN_ROD_M: [f64; 3] = [0.0, 0.0, 0.125];
+pub use robot::grounding_rod::HANDLE_CENTER_IN_ROD_M;
 
 /// A `PoseStamped` of `frame_from_body`.
 #[must_use]

@@ -66,7 +66,7 @@ use crate::clamp::{CLAMP_DRIVER, ClampSim, WIRE_CONTACT_TRAVEL_M};
 use crate::environment::{ANEMOMETER, EnvironmentSim, LUX_METER, Wind, light_at};
 use crate::lift::{LIFT_DRIVER, LiftSim};
 use crate::rod::{Rod, RodInputs, RodState};
-use crate::scenario::Scenario;
+use crate::scenario::{RodStart, Scenario};
 use crate::scene::{Scene, SubstationBuilder, SubstationLayout};
 use crate::truth::{HANDLE_CENTER_IN_ROD_M, SIM, hanging_point, pose_stamped};
 
@@ -83,6 +83,36 @@ pub const POSE_TRUTH_PERIOD_NS: u64 = 100_000_000;
 #[must_use]
 pub fn mount_from_config(xyz_m: [f64; 3], rpy_deg: [f64; 3]) -> Isometry3<f64> {
     robot::camera_mount::mount_from_xyz_rpy(xyz_m, rpy_deg)
+}
+
+/// `world_from_rod` of a rod clamped on the target conductor at the hanging point (the
+/// conductor at the working spot's span position), as the hang flow leaves it: the hook
+/// centre on the axis, its `y` along the wire, its `x` (the mouth) horizontal and pointing away
+/// from the working spot, the rod upright.
+#[must_use]
+pub fn hung_rod_pose(layout: &SubstationLayout) -> Option<Isometry3<f64>> {
+    let c = layout.target_conductor()?;
+    let u = layout.world_from_robot_spot.translation.x - c.start.x;
+    let hanging = hanging_point(c, &Isometry3::identity(), u);
+    let p = Point3::from(hanging.translation.vector);
+    let along = hanging.rotation * Vector3::x();
+    let spot = Point3::from(layout.world_from_robot_spot.translation.vector);
+    let mut away = p - spot;
+    away.z = 0.0;
+    let mut along_h = along;
+    along_h.z = 0.0;
+    let along_h = along_h.try_normalize(1e-9)?;
+    let x = (away - along_h * away.dot(&along_h)).try_normalize(1e-9)?;
+    let y = (along - x * along.dot(&x)).try_normalize(1e-9)?;
+    let z = x.cross(&y);
+    let (y, z) = if z.z < 0.0 { (-y, -z) } else { (y, z) };
+    let world_from_hook = Isometry3::from_parts(
+        Translation3::from(p.coords),
+        UnitQuaternion::from_rotation_matrix(&nalgebra::Rotation3::from_basis_unchecked(&[
+            x, y, z,
+        ])),
+    );
+    Some(world_from_hook * crate::rod::rod_from_hook().inverse())
 }
 
 /// The simulated world. See the module docs.
@@ -129,17 +159,28 @@ impl SimWorld {
         };
         let spot = layout.world_from_robot_spot;
         let (_, _, yaw) = spot.rotation.euler_angles();
-        let start = Planar {
-            x_m: spot.translation.x,
-            y_m: spot.translation.y,
-            yaw_rad: yaw,
+        let start = match r.base_start {
+            Some([x_m, y_m, yaw_rad]) => Planar { x_m, y_m, yaw_rad },
+            None => Planar {
+                x_m: spot.translation.x,
+                y_m: spot.translation.y,
+                yaw_rad: yaw,
+            },
         };
         let bump = scenario
             .bump
             .as_ref()
             .map(|b| Bump::resolve(b, seed, scenario.duration_s))
             .transpose()?;
-        let rod = Rod::on_rack(layout.world_from_rod_stored);
+        let rod = match r.rod {
+            RodStart::Rack => Rod::on_rack(layout.world_from_rod_stored),
+            RodStart::Hung => Rod::clamped(
+                layout.world_from_rod_stored,
+                hung_rod_pose(&layout).ok_or(SimError::Layout {
+                    reason: "the bay has no target conductor to hang the rod on".to_owned(),
+                })?,
+            ),
+        };
         let wind = Wind::new(
             seed,
             scenario.wind,
@@ -469,6 +510,13 @@ impl SimWorld {
                     now,
                 );
             }
+            self.push(
+                SIM,
+                topics::SIM_BASE_POSE,
+                pose_stamped(MAP, stamp, &self.base.map_from_base()).into(),
+                now,
+                now,
+            );
             let [hx, hy, hz] = HANDLE_CENTER_IN_ROD_M;
             let handle = self.rod.world_from_rod * Isometry3::translation(hx, hy, hz);
             self.push(

@@ -20,6 +20,19 @@ use replay::{McapReader, ReadFilter};
 pub enum CheckCommand {
     /// Joint limits, speeds, accelerations and collisions of every commanded and executed arm motion.
     Motion(MotionArgs),
+    /// Judge a simulated task run against the simulator's truth: unsafe commands, final hook
+    /// error, outcome (independent of the robot's own checks).
+    Task(TaskArgs),
+}
+
+/// Arguments of `rodlog check task`.
+#[derive(Debug, clap::Args)]
+pub struct TaskArgs {
+    /// The recording (a simulator run).
+    pub recording: PathBuf,
+    /// Print one JSON object.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Arguments of `rodlog check motion`.
@@ -39,7 +52,55 @@ pub struct MotionArgs {
 pub fn run(command: &CheckCommand) -> anyhow::Result<()> {
     match command {
         CheckCommand::Motion(args) => motion(args),
+        CheckCommand::Task(args) => task(args),
     }
+}
+
+fn task(args: &TaskArgs) -> anyhow::Result<()> {
+    let v = crate::judge::judge(&args.recording)?;
+    if args.json {
+        super::print_stdout(&serde_json::to_string(&v)?)?;
+    } else {
+        let mut text = format!(
+            "{}: {} {}{} after {}; rod {}{}\n",
+            args.recording.display(),
+            v.task.as_deref().unwrap_or("no task"),
+            v.outcome,
+            if v.reason_code.is_empty() {
+                String::new()
+            } else {
+                format!(" [{}]", v.reason_code)
+            },
+            v.operation_s
+                .map_or_else(|| "-".to_owned(), |s| format!("{s:.1} s")),
+            v.rod_state,
+            if v.success { " (success)" } else { "" },
+        );
+        if let Some(h) = v.hook {
+            text.push_str(&format!(
+                "  hook: across {:+.2} mm, along the approach {:+.2} mm, yaw {:+.2} deg: {:.0} % of the capture window\n",
+                h.across_mm, h.along_mm, h.yaw_deg, 100.0 * h.window_fraction
+            ));
+        }
+        text.push_str(&format!(
+            "  {} commands judged against the true geometry and wind: {} unsafe; max true wind at a command {:.2} m/s; min clearance {:.1} mm",
+            v.commands,
+            v.unsafe_commands.len(),
+            v.max_wind_at_command_mps,
+            v.min_clearance_m * 1e3
+        ));
+        for u in &v.unsafe_commands {
+            text.push_str(&format!(
+                "\n  UNSAFE {:.3} s {}: {}",
+                u.t_s, u.topic, u.reason
+            ));
+        }
+        super::print_stdout(&text)?;
+    }
+    if !v.unsafe_commands.is_empty() {
+        bail!("{} unsafe commands", v.unsafe_commands.len());
+    }
+    Ok(())
 }
 
 fn motion(args: &MotionArgs) -> anyhow::Result<()> {

@@ -71,7 +71,7 @@ pub struct ExperimentArgs {
 /// Runs the experiment.
 ///
 /// # Errors
-/// Bad arguments, experiments not implemented yet, and the experiment's own errors.
+/// Bad arguments and the experiment's own errors.
 pub fn run(args: &ExperimentArgs) -> Result<()> {
     if !(args.image_scale > 0.0 && args.image_scale <= 4.0) {
         bail!("--image-scale must be in (0, 4], got {}", args.image_scale);
@@ -80,9 +80,6 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
         bail!("--trials must be at least 1");
     }
     let name = args.name.name();
-    let not_implemented = |issue: u32| -> Result<()> {
-        bail!("experiment {name} is not implemented yet (issue {issue})")
-    };
     // Made only by the experiments that exist, so a refused name leaves no folder behind.
     let settings = || -> Result<Settings> {
         let out_path = args
@@ -103,9 +100,9 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
         ExperimentName::Noise => experiment::noise::run(&settings()?),
         ExperimentName::Motions => experiment::motions::run(&settings()?),
         ExperimentName::Datasets => experiment::datasets::run(&settings()?),
-        ExperimentName::Tasks
-        | ExperimentName::Light
-        | ExperimentName::Wind
-        | ExperimentName::Maintenance => not_implemented(12),
+        ExperimentName::Tasks => experiment::tasks::run(&settings()?),
+        ExperimentName::Light => experiment::light::run(&settings()?),
+        ExperimentName::Wind => experiment::wind::run(&settings()?),
+        ExperimentName::Maintenance => experiment::maintenance::run(&settings()?),
     }
 }

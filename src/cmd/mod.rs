@@ -5,6 +5,7 @@ pub mod check;
 pub mod experiment;
 pub mod import;
 pub mod info;
+pub mod log;
 pub mod record;
 pub mod recording_views;
 pub mod replay;

@@ -100,6 +100,7 @@ pub fn pipeline(
                 Box::new(calibration_stage(params, commands)?),
             ];
             stages.extend(perceive_stage(params)?);
+            stages.extend(task_stage(params)?);
             Ok(stages)
         }
         "test_world" => Ok(vec![
@@ -206,6 +207,65 @@ pub fn perceive_stage(params: &Params) -> anyhow::Result<Option<Box<dyn Stage + 
     Ok(Some(Box::new(PerceiveStage::new(config)?)))
 }
 
+/// The `task` stage (control crate: the hang and remove machines) when the scenario's `task`
+/// is `hang` or `remove`, configured from `task.*`: `start_s`, `self_maintenance`,
+/// `standoff_m`, `wire_captures`, `handle_captures`, `approach_m`, `attempts`,
+/// `clamp_torque_nm`, `operation_timeout_s`, `wind_sigmas`, `wind_hold_timeout_s`,
+/// `min_confidence`, `latency_ms`; defaults of [`control::stages::task::TaskConfig`].
+///
+/// # Errors
+/// Mistyped or out-of-range parameters.
+pub fn task_stage(params: &Params) -> anyhow::Result<Option<Box<dyn Stage + Send>>> {
+    use control::stages::task::{TaskConfig, TaskKind, TaskStage};
+    let task = params.str_or("task", "none")?;
+    let kind = match task.as_str() {
+        "none" | "calibrate" => return Ok(None),
+        other => TaskKind::parse(other).with_context(|| {
+            format!("task = {other:?}: expected none, calibrate, hang or remove")
+        })?,
+    };
+    let d = TaskConfig::default();
+    let secs = |key: &str, default: msgs::RobotDuration| -> anyhow::Result<msgs::RobotDuration> {
+        let v = params.f64_or(key, default.as_secs_f64())?;
+        msgs::RobotDuration::from_secs_f64(v).with_context(|| key.to_owned())
+    };
+    let count = |key: &str, default: usize| -> anyhow::Result<usize> {
+        let v = params.u64_or(key, default as u64)?;
+        if v == 0 {
+            bail!("{key} = 0: must be at least 1");
+        }
+        usize::try_from(v).with_context(|| key.to_owned())
+    };
+    let mut wind = d.wind;
+    wind.sigmas = params.f64_or("task.wind_sigmas", wind.sigmas)?;
+    wind.hold_timeout = secs("task.wind_hold_timeout_s", wind.hold_timeout)?;
+    let mut thresholds = d.thresholds;
+    thresholds.min_score = params.f64_or("task.min_confidence", thresholds.min_score)?;
+    let config = TaskConfig {
+        kind,
+        start_at: msgs::RobotTime::from_secs_f64(
+            params.f64_or("task.start_s", d.start_at.as_secs_f64())?,
+        )
+        .context("task.start_s")?,
+        self_maintenance: params.bool_or("task.self_maintenance", d.self_maintenance)?,
+        standoff_m: params.f64_or("task.standoff_m", d.standoff_m)?,
+        wire_captures: count("task.wire_captures", d.wire_captures)?,
+        handle_captures: count("task.handle_captures", d.handle_captures)?,
+        approach_m: params.f64_or("task.approach_m", d.approach_m)?,
+        attempts: count("task.attempts", d.attempts)?,
+        clamp_torque_nm: params.f64_or("task.clamp_torque_nm", d.clamp_torque_nm)?,
+        operation_timeout: secs("task.operation_timeout_s", d.operation_timeout)?,
+        latency: msgs::RobotDuration::from_secs_f64(
+            params.f64_or("task.latency_ms", d.latency.as_secs_f64() * 1e3)? * 1e-3,
+        )
+        .context("task.latency_ms")?,
+        wind,
+        thresholds,
+        ..d
+    };
+    Ok(Some(Box::new(TaskStage::new(config)?)))
+}
+
 /// The `script` stage from a scenario's `[[command]]` tables (`t_s`, `kind`, `values`,
 /// optional `duration_s`).
 ///
@@ -250,7 +310,7 @@ pub fn script_stage(commands: &[toml::Table]) -> anyhow::Result<control::script:
 ///
 /// # Errors
 /// Invalid scenario text or values (the simulator's errors name the key).
-fn sim_world(scenario: &Scenario) -> anyhow::Result<sim::SimWorld> {
+pub fn sim_world(scenario: &Scenario) -> anyhow::Result<sim::SimWorld> {
     let origin = scenario
         .source_path
         .as_ref()
@@ -308,6 +368,64 @@ pub fn scenario_of_recording(path: &Path) -> anyhow::Result<Scenario> {
     )?)
 }
 
+/// The header (metadata, attachments) of a recording of `scenario`.
+///
+/// # Errors
+/// A mistyped `world` parameter.
+pub fn recording_header(scenario: &Scenario) -> anyhow::Result<RecordingHeader> {
+    let world_name = scenario.params.str_or(WORLD_PARAM, DEFAULT_WORLD)?;
+    let robot_info = MetadataRecord::new("robot_info")
+        .with("robot", "AUBO i10 arm + lift + mobile base")
+        .with("model", "nominal DH (DESIGN.md section 6)")
+        .with("world", &world_name)
+        .with("joints", msgs::frames::JOINT_NAMES.join(","));
+    let mut header = RecordingHeader::for_scenario(scenario, robot_info);
+    header.attachments.push((
+        "robot.urdf".to_owned(),
+        "application/xml".to_owned(),
+        robot::robot_urdf(&RobotModel::nominal()).into_bytes(),
+    ));
+    Ok(header)
+}
+
+/// Records `scenario` (its world and pipeline) to `options.out`, with `extra_sinks` beside
+/// the MCAP writer: what `rodlog record` does, and the experiments' runs.
+///
+/// # Errors
+/// Pipeline, world and recording errors.
+pub fn record_scenario(
+    scenario: &Scenario,
+    options: &RecordOptions,
+    extra_sinks: Vec<Box<dyn recorder::Sink>>,
+) -> anyhow::Result<recorder::RecordSummary> {
+    let world_name = scenario.params.str_or(WORLD_PARAM, DEFAULT_WORLD)?;
+    let stages = pipeline(&scenario.params, &scenario.commands)?;
+    let header = recording_header(scenario)?;
+    let out = &options.out;
+    match world_name.as_str() {
+        "sim" => recorder::record_with_sinks(
+            sim_world(scenario)?,
+            stages,
+            &header,
+            scenario.duration,
+            options,
+            extra_sinks,
+        ),
+        _ => recorder::record_with_sinks(
+            TestWorld::new(TestWorldConfig::from_params(
+                scenario.seed,
+                &scenario.params,
+            )?),
+            stages,
+            &header,
+            scenario.duration,
+            options,
+            extra_sinks,
+        ),
+    }
+    .with_context(|| format!("recording scenario {} to {}", scenario.name, out.display()))
+}
+
 /// Runs `rodlog record`.
 pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
     let from_recording = Path::new(&args.scenario);
@@ -325,23 +443,18 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
     for s in &args.set {
         scenario.params.set_from_arg(s)?;
     }
-    let world_name = scenario.params.str_or(WORLD_PARAM, DEFAULT_WORLD)?;
-    let stages = pipeline(&scenario.params, &scenario.commands)?;
-    let robot_info = MetadataRecord::new("robot_info")
-        .with("robot", "AUBO i10 arm + lift + mobile base")
-        .with("model", "nominal DH (DESIGN.md section 6)")
-        .with("world", &world_name)
-        .with("joints", msgs::frames::JOINT_NAMES.join(","));
-    let mut header = RecordingHeader::for_scenario(&scenario, robot_info);
-    header.attachments.push((
-        "robot.urdf".to_owned(),
-        "application/xml".to_owned(),
-        robot::robot_urdf(&RobotModel::nominal()).into_bytes(),
-    ));
     let out = args
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("{}.mcap", scenario.name)));
+    let mut extra_sinks: Vec<Box<dyn recorder::Sink>> = Vec::new();
+    if let Some(rrd) = &args.viz {
+        let header = recording_header(&scenario)?;
+        extra_sinks.push(Box::new(super::view::VizSink::create(
+            rrd,
+            &header.metadata,
+        )?));
+    }
     let options = RecordOptions {
         out: out.clone(),
         sink: SinkOptions {
@@ -351,35 +464,7 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
         realtime: args.realtime,
         threads: args.threads,
     };
-    let mut extra_sinks: Vec<Box<dyn recorder::Sink>> = Vec::new();
-    if let Some(rrd) = &args.viz {
-        extra_sinks.push(Box::new(super::view::VizSink::create(
-            rrd,
-            &header.metadata,
-        )?));
-    }
-    let summary = match world_name.as_str() {
-        "sim" => recorder::record_with_sinks(
-            sim_world(&scenario)?,
-            stages,
-            &header,
-            scenario.duration,
-            &options,
-            extra_sinks,
-        ),
-        _ => recorder::record_with_sinks(
-            TestWorld::new(TestWorldConfig::from_params(
-                scenario.seed,
-                &scenario.params,
-            )?),
-            stages,
-            &header,
-            scenario.duration,
-            &options,
-            extra_sinks,
-        ),
-    }
-    .with_context(|| format!("recording scenario {} to {}", scenario.name, out.display()))?;
+    let summary = record_scenario(&scenario, &options, extra_sinks)?;
     let mut text = format!(
         "recorded {} messages, {} of robot time, to {}{}\n",
         summary.messages,

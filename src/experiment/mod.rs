@@ -12,7 +12,9 @@
 //! - [`progress`]: [`progress::Progress`], an indicatif bar on stderr, hidden off a terminal.
 //! - Plots: `viz::plots` (box plots per condition and method, line plots, bar charts).
 //! - Experiments: [`matchers`] (feature matchers on pairs with known geometry), [`noise`],
-//!   [`motions`], [`datasets`] (hand-eye calibration, ours vs ZHI; issue 9).
+//!   [`motions`], [`datasets`] (hand-eye calibration, ours vs ZHI; issue 9), [`tasks`],
+//!   [`light`], [`wind`], [`maintenance`] (the task experiments: simulated runs through the
+//!   recording pipeline, [`task_runs`], judged with the simulator's truth; issue 12).
 //!
 //! # Writing an experiment
 //! A module with `pub fn run(settings: &Settings) -> anyhow::Result<()>` that
@@ -28,12 +30,17 @@
 //! Then add one arm to the `match` in `src/cmd/experiment.rs`.
 
 pub mod datasets;
+pub mod light;
+pub mod maintenance;
 pub mod matchers;
 pub mod motions;
 pub mod noise;
 pub mod progress;
 pub mod report;
 pub mod stats;
+pub mod task_runs;
+pub mod tasks;
+pub mod wind;
 
 use std::path::{Path, PathBuf};
 

@@ -416,6 +416,12 @@ impl Viz {
             (t::SIM_HANDLE_POSE, Msg::PoseStamped(p)) => {
                 self.log_pose("sim_handle_pose", p, "sim/handle_pose")?;
             }
+            (t::SIM_BASE_POSE, Msg::PoseStamped(p)) => {
+                self.log_pose("sim_base_pose", p, "sim/base_pose")?;
+            }
+            (t::CALIBRATION_COMMAND, Msg::String(c)) => {
+                self.command_line(topic, format!("calibration: {}", c.data))?;
+            }
             (t::SIM_CAMERA_MOUNT, Msg::TransformStamped(ts)) => {
                 // The true mount, drawn as its own frame beside the estimated camera frame.
                 let pose = Pose::from_transform(&ts.transform);

@@ -62,6 +62,10 @@ pub const SELF_COLLISION_PAIRS: [(usize, usize); 13] = [
     (3, 6),
 ];
 
+/// Arm links checked against the payload: shoulder column to wrist 2 (wrist 3 and the tool
+/// hold it).
+pub const PAYLOAD_CHECKED_LINKS: usize = 5;
+
 /// Chassis outline in `base_link` (m): 1.2 x 0.8, from 0.1 to 0.45 m high (`robot::urdf`).
 pub const CHASSIS_HALF_EXTENTS_M: [f64; 3] = [0.6, 0.4, 0.175];
 /// Chassis box centre height in `base_link` (m).
@@ -181,6 +185,61 @@ pub struct CollisionWorld {
     pub boxes: Vec<(String, OrientedBox)>,
     /// Named capsules (wire span, a rod on the rack or on the wire).
     pub capsules: Vec<(String, Capsule)>,
+    /// Contacts that are the point of the motion, `(body, obstacle)`: not checked (the hook
+    /// on the target wire, the handle in the rack's holder).
+    pub allowed: Vec<(&'static str, String)>,
+}
+
+impl CollisionWorld {
+    /// Adds `other`'s obstacles and allowed contacts.
+    pub fn extend(&mut self, other: &Self) {
+        self.boxes.extend(other.boxes.iter().cloned());
+        self.capsules.extend(other.capsules.iter().cloned());
+        self.allowed.extend(other.allowed.iter().cloned());
+    }
+
+    /// Allows contact between `body` (an arm link or payload name) and `obstacle`.
+    #[must_use]
+    pub fn allowing(mut self, body: &'static str, obstacle: &str) -> Self {
+        self.allowed.push((body, obstacle.to_owned()));
+        self
+    }
+
+    fn is_allowed(&self, body: &str, obstacle: &str) -> bool {
+        self.allowed
+            .iter()
+            .any(|(b, o)| *b == body && o == obstacle)
+    }
+}
+
+/// A body carried by the tool (the grounding rod): capsules in `tool0` coordinates.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Payload {
+    /// Named capsules, `tool0_from` coordinates.
+    pub capsules_in_tool0: Vec<(&'static str, Capsule)>,
+}
+
+impl Payload {
+    /// The grounding rod held at the grasp ([`robot::grounding_rod`]).
+    #[must_use]
+    pub fn grounding_rod() -> Self {
+        let tool0_from_rod = robot::grounding_rod::rod_from_tool0_grasp().inverse();
+        Self {
+            capsules_in_tool0: robot::grounding_rod::rod_capsules_in_rod()
+                .iter()
+                .map(|(name, a, b, r)| {
+                    (
+                        *name,
+                        Capsule {
+                            a: tool0_from_rod * a,
+                            b: tool0_from_rod * b,
+                            radius_m: *r,
+                        },
+                    )
+                })
+                .collect(),
+        }
+    }
 }
 
 impl CollisionWorld {
@@ -221,6 +280,7 @@ impl CollisionWorld {
                 ("lift_plate".to_owned(), plate),
             ],
             capsules: Vec::new(),
+            allowed: Vec::new(),
         }
     }
 }
@@ -232,13 +292,17 @@ pub struct ArmCollisionModel {
     pub model: RobotModel,
     /// Link radii (m).
     pub link_radii_m: [f64; 6],
-    /// Tool capsule: length along tool0's z (m) and radius (m). Default 0.25 m, 0.05 m
-    /// (clamp body).
+    /// Tool capsule: length along tool0's z (m) and radius (m). Default 0.12 m, 0.05 m: the
+    /// clamp body and its jaws around the rod's handle (the rod axis is 0.06 m out,
+    /// [`robot::grounding_rod::rod_from_tool0_grasp`]) and the wrist camera (0.09 m out).
     pub tool_length_m: f64,
     /// Tool capsule radius (m).
     pub tool_radius_m: f64,
     /// Required clearance (m). Default 0.02.
     pub margin_m: f64,
+    /// What the tool carries (checked against the world and the arm's links up to wrist 2).
+    /// Default none.
+    pub payload: Payload,
 }
 
 impl ArmCollisionModel {
@@ -248,10 +312,43 @@ impl ArmCollisionModel {
         Self {
             model: RobotModel::nominal(),
             link_radii_m: ARM_LINK_RADII_M,
-            tool_length_m: 0.25,
+            tool_length_m: 0.12,
             tool_radius_m: 0.05,
             margin_m: 0.02,
+            payload: Payload::default(),
         }
+    }
+
+    /// The same arm carrying `payload`.
+    #[must_use]
+    pub fn carrying(&self, payload: Payload) -> Self {
+        Self {
+            payload,
+            ..self.clone()
+        }
+    }
+
+    /// The payload's capsules in `base_link` at `(lift_m, q)`.
+    #[must_use]
+    pub fn payload_capsules(&self, lift_m: f64, q_rad: &[f64; 6]) -> Vec<(&'static str, Capsule)> {
+        if self.payload.capsules_in_tool0.is_empty() {
+            return Vec::new();
+        }
+        let base_from_tool0 = self.model.base_from_tool0(lift_m, q_rad);
+        self.payload
+            .capsules_in_tool0
+            .iter()
+            .map(|(name, c)| {
+                (
+                    *name,
+                    Capsule {
+                        a: base_from_tool0 * c.a,
+                        b: base_from_tool0 * c.b,
+                        radius_m: c.radius_m,
+                    },
+                )
+            })
+            .collect()
     }
 
     /// The capsules of [`ARM_LINK_NAMES`] in `base_link` at `(lift_m, q)`.
@@ -290,11 +387,16 @@ impl ArmCollisionModel {
         q_rad: &[f64; 6],
     ) -> (f64, &'static str, String) {
         let capsules = self.capsules(lift_m, q_rad);
+        let payload = self.payload_capsules(lift_m, q_rad);
         let mut best = (f64::INFINITY, "", String::new());
-        for (k, capsule) in capsules.iter().enumerate() {
-            let name = ARM_LINK_NAMES[k];
+        let bodies = capsules
+            .iter()
+            .enumerate()
+            .map(|(k, c)| (ARM_LINK_NAMES[k], k == 0, c))
+            .chain(payload.iter().map(|(name, c)| (*name, false, c)));
+        for (name, bolted, capsule) in bodies {
             for (obstacle, b) in &world.boxes {
-                if k == 0 {
+                if bolted || world.is_allowed(name, obstacle) {
                     continue; // the shoulder column is bolted to the platform
                 }
                 let c = capsule_box(capsule, b);
@@ -303,6 +405,9 @@ impl ArmCollisionModel {
                 }
             }
             for (obstacle, other) in &world.capsules {
+                if world.is_allowed(name, obstacle) {
+                    continue;
+                }
                 let c = capsule_capsule(capsule, other);
                 if c < best.0 {
                     best = (c, name, obstacle.clone());
@@ -313,6 +418,15 @@ impl ArmCollisionModel {
             let c = capsule_capsule(&capsules[i], &capsules[j]);
             if c < best.0 {
                 best = (c, ARM_LINK_NAMES[i], ARM_LINK_NAMES[j].to_owned());
+            }
+        }
+        // The payload against the links up to wrist 2 (wrist 3 and the tool hold it).
+        for (name, p) in &payload {
+            for (k, link) in capsules.iter().enumerate().take(PAYLOAD_CHECKED_LINKS) {
+                let c = capsule_capsule(p, link);
+                if c < best.0 {
+                    best = (c, name, ARM_LINK_NAMES[k].to_owned());
+                }
             }
         }
         best

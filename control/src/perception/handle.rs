@@ -2,8 +2,7 @@
 //!
 //! Handle model: the grip of the grounding rod is a straight cylindrical bar of known radius
 //! [`HANDLE_RADIUS_M`] (21 mm) and length [`HANDLE_LENGTH_M`] (250 mm): the knurled rubber
-//! handle of the simulated rod (`sim::scene::grounding_rod`, which control must not depend
-//! on; `tests/perception_sim.rs` in the root package checks that the two agree). The whole
+//! handle of the rod ([`robot::grounding_rod`], the geometry the simulator renders). The whole
 //! handle must be in view: 0.25 m fills the wrist camera's width (0.73 z) at z = 0.34 m,
 //! so capture it from >= 0.4 m. It is fitted like the wire (RANSAC
 //! cylinder of known radius + LM, [`super::cylinder`]); its extent along the axis is the 2nd-98th
@@ -21,10 +20,7 @@ use super::cylinder::{CylinderFit, RansacParams, fit_cylinder};
 use super::wire::{HangingPoint, hanging_point};
 use nalgebra::{Point3, Vector3};
 
-/// Handle bar radius (m): the simulated rod's handle.
-pub const HANDLE_RADIUS_M: f64 = 0.021;
-/// Handle bar length (m): the simulated rod's handle.
-pub const HANDLE_LENGTH_M: f64 = 0.25;
+pub use robot::grounding_rod::{HANDLE_LENGTH_M, HANDLE_RADIUS_M};
 
 /// The handle's geometric model.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -4,5 +4,7 @@
 //! | stage | module | does |
 //! |---|---|---|
 //! | `perceive` | [`perceive`] | panoramic fix -> wrist look motion -> captures -> hanging point |
+//! | `task` | [`task`] | the hang and remove task machines, their safety gates and self-maintenance |
 
 pub mod perceive;
+pub mod task;

@@ -98,10 +98,10 @@ impl Default for PerceiveConfig {
     fn default() -> Self {
         Self {
             model: RobotModel::nominal(),
-            // The middle phase at mid-span of the simulator's default bay: attachment 6.2 m,
-            // sag 0.9 m.
+            // The middle phase at mid-span of the simulator's default bay: attachment 4.5 m,
+            // sag 0.8 m.
             prior_in_map: WirePrior {
-                point: Point3::new(12.0, 0.0, 5.3),
+                point: Point3::new(12.0, 0.0, 3.7),
                 direction: Vector3::x(),
                 half_length_m: 1.5,
             },

@@ -21,28 +21,13 @@ use super::{ObjectId, SceneBuilder};
 
 /// Name of the rod object in the scene.
 pub const ROD_OBJECT_NAME: &str = "grounding_rod";
-/// Handle length (m).
-pub const HANDLE_LENGTH_M: f64 = 0.25;
-/// Handle radius (m).
-pub const HANDLE_RADIUS_M: f64 = 0.021;
-/// Outer support rod top (m, rod frame z).
-pub const SUPPORT_TOP_M: f64 = 1.45;
-/// Outer support rod radius (m).
-pub const SUPPORT_RADIUS_M: f64 = 0.019;
-/// Inner drive rod top (m).
-pub const DRIVE_TOP_M: f64 = 1.78;
-/// Inner drive rod radius (m).
-pub const DRIVE_RADIUS_M: f64 = 0.009;
-/// Centre of the hook's mouth, where the wire axis sits when hung (rod frame, m).
-pub const HOOK_CENTER_IN_ROD: [f64; 3] = [0.0, 0.0, 1.935];
-/// Height of the rod frame's origin above the rack frame's origin when stored (m).
-pub const RACK_STORE_HEIGHT_M: f64 = 0.12;
+/// Heights of the rack's two C-shaped holders above the rack frame (m).
+pub const RACK_HOLDER_HEIGHTS_M: [f64; 2] = [0.75, 1.45];
 
-/// `rack_from_rod` of the stored rod.
-#[must_use]
-pub fn rack_from_rod() -> Isometry3<f64> {
-    Isometry3::translation(0.0, 0.0, RACK_STORE_HEIGHT_M)
-}
+pub use robot::grounding_rod::{
+    DRIVE_RADIUS_M, DRIVE_TOP_M, HANDLE_LENGTH_M, HANDLE_RADIUS_M, HOOK_CENTER_IN_ROD,
+    RACK_STORE_HEIGHT_M, SUPPORT_RADIUS_M, SUPPORT_TOP_M, rack_from_rod,
+};
 
 fn cyl(z0: f64, z1: f64, r: f64) -> Shape {
     Shape::Cylinder {
@@ -142,7 +127,8 @@ pub fn add_rod(b: &mut SceneBuilder, world_from_rod: Isometry3<f64>) -> ObjectId
 }
 
 /// Adds the rack (static) at `world_from_rack`: a base plate, an upright post and two
-/// C-shaped holders around the stored rod.
+/// C-shaped holders around the stored rod, on a pedestal down to the ground when the rack
+/// frame is above it.
 pub fn add_rack(b: &mut SceneBuilder, world_from_rack: &Isometry3<f64>) {
     let paint = b.material(
         Material::matte(
@@ -172,12 +158,27 @@ pub fn add_rack(b: &mut SceneBuilder, world_from_rack: &Isometry3<f64>) {
         rotation: r,
         half_extents_m: Vector3::new(h[0], h[1], h[2]),
     };
-    b.add(place([0.0, -0.05, 0.01], [0.2, 0.2, 0.01]), plate);
-    b.add(place([0.0, -0.09, 0.6], [0.025, 0.025, 0.6]), paint);
-    for z in [0.35, 1.05] {
+    b.add(place([0.0, 0.05, 0.01], [0.2, 0.2, 0.01]), plate);
+    // The pedestal the rack stands on (from the ground to the rack frame).
+    let pedestal_m = world_from_rack.translation.z;
+    if pedestal_m > 0.01 {
+        b.add(
+            place(
+                [0.0, 0.05, -0.5 * pedestal_m],
+                [0.22, 0.22, 0.5 * pedestal_m],
+            ),
+            plate,
+        );
+    }
+    // The post stands 0.13 m off the rod axis on the rack's +y side: the gripper closes
+    // around the handle between them. The holders open towards -y.
+    b.add(place([0.0, 0.13, 0.6], [0.025, 0.025, 0.6]), paint);
+    // The holders grip the support tube above the handle, clear of the gripper as it pulls
+    // the rod straight up out of the rack (the rod then leaves them through their open side).
+    for z in RACK_HOLDER_HEIGHTS_M {
         // Arm from the post to the holder, then three bars forming a C around the rod.
-        b.add(place([0.0, -0.06, z], [0.012, 0.03, 0.012]), paint);
-        b.add(place([0.0, -0.032, z], [0.035, 0.006, 0.015]), paint);
+        b.add(place([0.0, 0.08, z], [0.012, 0.05, 0.012]), paint);
+        b.add(place([0.0, 0.032, z], [0.035, 0.006, 0.015]), paint);
         b.add(place([-0.032, 0.0, z], [0.006, 0.035, 0.015]), paint);
         b.add(place([0.032, 0.0, z], [0.006, 0.035, 0.015]), paint);
     }

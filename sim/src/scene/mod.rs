@@ -97,6 +97,12 @@ impl SceneObject {
         &self.world_from_object
     }
 
+    /// Its primitives, in the object's frame.
+    #[must_use]
+    pub fn primitives(&self) -> &[Primitive] {
+        self.bvh.primitives()
+    }
+
     fn set_pose(&mut self, world_from_object: Isometry3<f64>) {
         self.world_from_object = world_from_object;
         self.object_from_world = world_from_object.inverse();
@@ -361,6 +367,12 @@ impl Scene {
     #[must_use]
     pub fn static_primitive_count(&self) -> usize {
         self.statics.primitives().len()
+    }
+
+    /// The static primitives (world frame), e.g. for a judge's collision geometry.
+    #[must_use]
+    pub fn static_primitives(&self) -> &[Primitive] {
+        self.statics.primitives()
     }
 
     /// Moves an object (O(1): one isometry and 8 transformed corners).

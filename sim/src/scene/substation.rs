@@ -55,20 +55,30 @@ pub enum SubstationError {
     },
 }
 
+/// Where the rod rack stands relative to the robot's working spot (`base_link` at the spot,
+/// m): on the base's left, a little behind its centre.
+pub const RACK_IN_BASE_M: [f64; 2] = [-0.3, 0.8];
+/// Height of the rack's pedestal (m): the stored rod's handle is then 0.72-0.97 m up, where
+/// the arm reaches it over the base's edge with the lift lowered.
+pub const RACK_PEDESTAL_M: f64 = 0.6;
+
 /// Geometry parameters of the bay.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SubstationParams {
     /// Distance between the two gantries along x (m). Default 24.
     pub span_m: f64,
-    /// Gantry height (top of the beam, m). Default 8.5.
+    /// Gantry height (top of the beam, m). Default 6.1.
     pub gantry_height_m: f64,
     /// Distance between phases along y (m). Default 4.5.
     pub phase_spacing_m: f64,
-    /// Height of the conductor attachment points (end of the insulator strings, m). Default 6.2.
+    /// Height of the conductor attachment points (end of the insulator strings, m). Default
+    /// 4.5: with the default sag the conductor is 3.7 m up at mid-span, where the robot's
+    /// lift (2 m travel) brings the wrist camera level with it and the rod's hook (1.8 m above
+    /// the gripper) onto it.
     pub attach_height_m: f64,
     /// Horizontal length of each tension insulator string (m). Default 2.6.
     pub string_length_m: f64,
-    /// Mid-span sag of the conductors below their chord (m). Default 0.9.
+    /// Mid-span sag of the conductors below their chord (m). Default 0.8.
     pub sag_m: f64,
     /// Lateral offset of the robot's working spot from the middle phase (m, towards -y).
     /// Default 1.3.
@@ -79,11 +89,11 @@ impl Default for SubstationParams {
     fn default() -> Self {
         Self {
             span_m: 24.0,
-            gantry_height_m: 8.5,
+            gantry_height_m: 6.1,
             phase_spacing_m: 4.5,
-            attach_height_m: 6.2,
+            attach_height_m: 4.5,
             string_length_m: 2.6,
-            sag_m: 0.9,
+            sag_m: 0.8,
             robot_offset_m: 1.3,
         }
     }
@@ -352,9 +362,17 @@ impl SubstationBuilder {
         );
         let (calib_center, calib_normal) =
             calibration_cabinet(&mut b, &m, x_robot + 1.35, y_robot, &mut dice);
+        // The rack stands beside the working spot on a pedestal, in the arm's reach with the
+        // lift lowered (0.85 m from the base centre, on its left and a little behind), its
+        // rod's hook opening facing away from the base so the gripper reaches the handle from
+        // the robot.
+        let rack_in_base = Vector3::new(RACK_IN_BASE_M[0], RACK_IN_BASE_M[1], 0.0);
+        let rack_position = world_from_robot_spot * Point3::from(rack_in_base);
+        let rack_yaw =
+            world_from_robot_spot.rotation.euler_angles().2 + rack_in_base.y.atan2(rack_in_base.x);
         let world_from_rack = Isometry3::from_parts(
-            Translation3::new(x_robot - 1.1, y_robot - 0.9, 0.0),
-            UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 0.3),
+            Translation3::new(rack_position.x, rack_position.y, RACK_PEDESTAL_M),
+            UnitQuaternion::from_axis_angle(&Vector3::z_axis(), rack_yaw),
         );
         grounding_rod::add_rack(&mut b, &world_from_rack);
         let world_from_rod_stored = world_from_rack * rack_from_rod();

@@ -1,0 +1,15 @@
+//! The grounding-rod tasks (DESIGN.md s6): hang the rod on the wire and remove it, safely,
+//! recalibrating the wrist camera when its mount has moved. The task machines themselves are
+//! the `task` stage ([`crate::stages::task`]); this module holds what they plan with.
+//!
+//! | module | holds |
+//! |---|---|
+//! | [`site`] | the site map: working spot, wire prior, rack, calibration target, obstacles |
+//! | [`poses`] | the flows' poses: hook goal, level look, grasp, hung rod from its handle |
+//! | [`calibration_views`] | wrist views of the calibration target (drift check, recalibration) |
+//! | [`safety`] | the wind gate (anemometer with its documented error) |
+
+pub mod calibration_views;
+pub mod poses;
+pub mod safety;
+pub mod site;

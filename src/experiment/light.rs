@@ -1,0 +1,130 @@
+//! `rodlog experiment light` (issue 12, DESIGN.md s7): hang success and time by hour of day,
+//! wind at most 2 m/s (the paper: failures only 18:00-19:00, every operation under 5 min).
+//!
+//! Each hour from 6:00 to 20:00 gets `--trials` seeded hangs with the self-maintenance on
+//! and no bump (the light alone decides): the drift check and the panoramic finder work on
+//! colour images, whose SNR falls at dusk (DESIGN.md s6); the structured-light depth does not
+//! care. The robot must refuse what it cannot see, never fail: the table separates refusals
+//! (by reason) from failures.
+
+use anyhow::Result;
+
+use super::progress::Progress;
+use super::report::{Report, Results};
+use super::task_runs::{GroupSummary, RunSpec, outcome_table, run_all, runs_dir, summarize};
+use super::{Settings, trial_seed};
+
+/// Trials per hour when `--trials` is not given.
+pub const DEFAULT_TRIALS: usize = 10;
+/// The hours (local solar time).
+pub const HOURS: [f64; 16] = [
+    6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0, 13.0, 14.0, 15.0, 16.0, 17.0, 17.5, 18.0, 18.5, 19.0,
+];
+
+/// Runs the experiment (module docs).
+///
+/// # Errors
+/// Simulation, judging, plotting or writing failures.
+pub fn run(settings: &Settings) -> Result<()> {
+    let trials = settings.trials_or(DEFAULT_TRIALS);
+    let camera_scale = super::tasks::CAMERA_SCALE * settings.image_scale;
+    let mut specs = Vec::new();
+    let mut seeds = Vec::new();
+    for (h, hour) in HOURS.iter().enumerate() {
+        for t in 0..trials {
+            let seed = trial_seed(settings.seed, 100 + h as u64, t as u64);
+            seeds.push(seed);
+            specs.push(RunSpec {
+                condition: format!(
+                    "{:02}:{:02}",
+                    hour.floor() as u32,
+                    ((hour.fract()) * 60.0).round() as u32
+                ),
+                task: "hang".into(),
+                seed,
+                hour: *hour,
+                wind_mps: 1.5 * sim::rng::uniform(seed, 0x11A7, 0),
+                bump: None,
+                self_maintenance: true,
+                camera_scale,
+                duration_s: 320.0,
+            });
+        }
+    }
+    let progress = Progress::new("light", specs.len() as u64);
+    let results = run_all(&specs, &runs_dir(&settings.out)?, &progress)?;
+    progress.finish();
+    let groups: Vec<GroupSummary> = specs
+        .iter()
+        .step_by(trials)
+        .map(|s| {
+            let runs: Vec<_> = results
+                .iter()
+                .filter(|r| r.spec.condition == s.condition)
+                .collect();
+            summarize(&s.condition, &runs)
+        })
+        .collect();
+    let mut report = Report::new("Light: hang success and time by hour of day");
+    report.paragraph(&format!(
+        "{trials} seeded hangs per hour, self-maintenance on, no bump, mean wind 0-1.5 m/s, wrist \
+         camera {}x{}. Judged with the simulator's truth.",
+        (1280.0 * camera_scale).round(),
+        (1024.0 * camera_scale).round()
+    ));
+    report.table(&outcome_table("hour", &groups));
+    let lines = vec![
+        viz::plots::Line {
+            name: "success".into(),
+            points: HOURS
+                .iter()
+                .zip(&groups)
+                .map(|(h, g)| (*h, 100.0 * g.success_rate))
+                .collect(),
+            band: Vec::new(),
+        },
+        viz::plots::Line {
+            name: "refused".into(),
+            points: HOURS
+                .iter()
+                .zip(&groups)
+                .map(|(h, g)| (*h, 100.0 * g.refused as f64 / g.runs.max(1) as f64))
+                .collect(),
+            band: Vec::new(),
+        },
+    ];
+    let plot = viz::plots::LinePlot {
+        title: "Hang outcome by hour of day".into(),
+        x_label: "hour".into(),
+        y_label: "runs (%)".into(),
+        series: lines,
+    };
+    let files = viz::plots::write_line_plot(&plot, &settings.out.plot_stem("success_by_hour"))?;
+    report.image("success by hour", &settings.out.relative(&files.png));
+    let time_plot = viz::plots::LinePlot {
+        title: "Median operation time of the successful hangs".into(),
+        x_label: "hour".into(),
+        y_label: "time (s)".into(),
+        series: vec![viz::plots::Line {
+            name: "median".into(),
+            points: HOURS
+                .iter()
+                .zip(&groups)
+                .filter(|(_, g)| g.median_s.is_finite())
+                .map(|(h, g)| (*h, g.median_s))
+                .collect(),
+            band: Vec::new(),
+        }],
+    };
+    let files = viz::plots::write_line_plot(&time_plot, &settings.out.plot_stem("time_by_hour"))?;
+    report.image("time by hour", &settings.out.relative(&files.png));
+    let mut json = Results::new("light", settings.seed);
+    json.seeds = seeds;
+    json.parameter("trials", trials)?;
+    json.parameter("hours", HOURS)?;
+    json.parameter("camera_scale", camera_scale)?;
+    json.section("groups", &groups)?;
+    json.write(settings.out.root())?;
+    let path = report.write(settings.out.root())?;
+    crate::cmd::print_stdout(&path.display().to_string())
+}

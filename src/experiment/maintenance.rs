@@ -1,0 +1,201 @@
+//! `rodlog experiment maintenance` (issue 12, DESIGN.md s7; not in the paper): how well the
+//! robot notices that its camera mount has moved, per bump size, and how often it raises a
+//! false alarm.
+//!
+//! Each run is the `check` task: the drift check views of the calibration target (the
+//! calibration stage's [`calib::selfcal`] drift check on `DRIFT_CHECK_4` views) after a
+//! bump at 0.5 s of a set size, direction drawn from the seed: rotation-only bins, translation
+//! -only bins and combined bins spanning 0.25-3 deg and 1-10 mm, and unbumped runs for the
+//! false alarms. Detected = the verdict `drifted`; "cannot tell" is counted on its own (a
+//! refusal to judge, not a detection). Goal (issue 12): >= 95 % detected in every bin at
+//! >= 0.5 deg or >= 3 mm, <= 5 % false alarms, >= 50 runs each.
+
+use anyhow::Result;
+use serde::Serialize;
+
+use super::progress::Progress;
+use super::report::{Report, Results, Table, fmt_pct};
+use super::task_runs::{RunSpec, run_all, runs_dir};
+use super::{Settings, trial_seed};
+
+/// Runs per bin when `--trials` is not given.
+pub const DEFAULT_TRIALS: usize = 50;
+/// The bins: `(label, rotation deg, translation mm)`; `(0, 0)` = unbumped.
+pub const BINS: [(&str, f64, f64); 13] = [
+    ("none", 0.0, 0.0),
+    ("rot 0.25 deg", 0.25, 0.0),
+    ("rot 0.5 deg", 0.5, 0.0),
+    ("rot 1 deg", 1.0, 0.0),
+    ("rot 2 deg", 2.0, 0.0),
+    ("rot 3 deg", 3.0, 0.0),
+    ("trans 1 mm", 0.0, 1.0),
+    ("trans 3 mm", 0.0, 3.0),
+    ("trans 5 mm", 0.0, 5.0),
+    ("trans 10 mm", 0.0, 10.0),
+    ("0.5 deg + 3 mm", 0.5, 3.0),
+    ("1 deg + 5 mm", 1.0, 5.0),
+    ("3 deg + 10 mm", 3.0, 10.0),
+];
+
+/// One bin's counts.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct BinResult {
+    /// Label.
+    pub bin: String,
+    /// Rotation (deg).
+    pub rot_deg: f64,
+    /// Translation (mm).
+    pub trans_mm: f64,
+    /// Runs.
+    pub runs: usize,
+    /// Verdict `drifted`.
+    pub drifted: usize,
+    /// Verdict `consistent`.
+    pub consistent: usize,
+    /// Verdict `cannot_tell` (or no answer).
+    pub cannot_tell: usize,
+    /// `drifted / runs` (the detection rate; for the unbumped bin, the false-alarm rate).
+    pub rate: f64,
+    /// Whether the bin is one the goal applies to (>= 0.5 deg or >= 3 mm).
+    pub goal_applies: bool,
+}
+
+/// Runs the experiment (module docs).
+///
+/// # Errors
+/// Simulation, judging, plotting or writing failures.
+pub fn run(settings: &Settings) -> Result<()> {
+    let trials = settings.trials_or(DEFAULT_TRIALS);
+    let camera_scale = super::tasks::CAMERA_SCALE * settings.image_scale;
+    let mut specs = Vec::new();
+    let mut seeds = Vec::new();
+    for (b, (label, rot, trans)) in BINS.iter().enumerate() {
+        for t in 0..trials {
+            let seed = trial_seed(settings.seed, 300 + b as u64, t as u64);
+            seeds.push(seed);
+            specs.push(RunSpec {
+                condition: (*label).to_owned(),
+                task: "check".into(),
+                seed,
+                hour: 9.0 + 6.0 * sim::rng::uniform(seed, 0x3A1, 0),
+                wind_mps: 1.0 * sim::rng::uniform(seed, 0x3A1, 1),
+                bump: (*rot > 0.0 || *trans > 0.0).then_some((*rot, *trans)),
+                self_maintenance: true,
+                camera_scale,
+                duration_s: 60.0,
+            });
+        }
+    }
+    let progress = Progress::new("maintenance", specs.len() as u64);
+    let results = run_all(&specs, &runs_dir(&settings.out)?, &progress)?;
+    progress.finish();
+    let bins: Vec<BinResult> = BINS
+        .iter()
+        .map(|(label, rot, trans)| {
+            let mut r = BinResult {
+                bin: (*label).to_owned(),
+                rot_deg: *rot,
+                trans_mm: *trans,
+                goal_applies: *rot >= 0.5 || *trans >= 3.0,
+                ..BinResult::default()
+            };
+            for run in results.iter().filter(|x| x.spec.condition == *label) {
+                r.runs += 1;
+                match run
+                    .verdict
+                    .calibration
+                    .iter()
+                    .rev()
+                    .find(|a| a.state == "check")
+                    .map(|a| a.reason_code.as_str())
+                {
+                    Some("drifted") => r.drifted += 1,
+                    Some("consistent") => r.consistent += 1,
+                    _ => r.cannot_tell += 1,
+                }
+            }
+            r.rate = if r.runs == 0 {
+                f64::NAN
+            } else {
+                r.drifted as f64 / r.runs as f64
+            };
+            r
+        })
+        .collect();
+    let mut report = Report::new("Maintenance: drift detection per bump size");
+    report.paragraph(&format!(
+        "{trials} runs per bin of the `check` task (4 drift check views of the calibration \
+         cabinet, wrist camera {}x{}, 9:00-15:00, mean wind 0-1 m/s); bump at 0.5 s in a \
+         direction drawn from the seed. Goal: >= 95 % detected at >= 0.5 deg or >= 3 mm, <= 5 % \
+         false alarms on unbumped runs.",
+        (1280.0 * camera_scale).round(),
+        (1024.0 * camera_scale).round()
+    ));
+    let mut t = Table::new(&[
+        "bin",
+        "runs",
+        "drifted",
+        "consistent",
+        "cannot tell",
+        "rate",
+        "goal",
+    ]);
+    for b in &bins {
+        let goal = if b.bin == "none" {
+            if b.rate <= 0.05 {
+                "<= 5 %: met"
+            } else {
+                "<= 5 %: NOT met"
+            }
+        } else if b.goal_applies {
+            if b.rate >= 0.95 {
+                ">= 95 %: met"
+            } else {
+                ">= 95 %: NOT met"
+            }
+        } else {
+            "(below the goal's size)"
+        };
+        t.row(vec![
+            b.bin.clone(),
+            b.runs.to_string(),
+            b.drifted.to_string(),
+            b.consistent.to_string(),
+            b.cannot_tell.to_string(),
+            fmt_pct(b.rate, 0),
+            goal.to_owned(),
+        ]);
+    }
+    report.table(&t);
+    let chart = viz::plots::BarChart {
+        title: "Drift detected (unbumped: false alarms)".into(),
+        x_label: "bump".into(),
+        y_label: "verdict drifted (%)".into(),
+        categories: bins.iter().map(|b| b.bin.clone()).collect(),
+        series: vec![(
+            "detected".into(),
+            bins.iter().map(|b| 100.0 * b.rate).collect(),
+        )],
+    };
+    let files = viz::plots::write_bar_chart(&chart, &settings.out.plot_stem("detection"))?;
+    report.image("detection rate", &settings.out.relative(&files.png));
+    let mut json = Results::new("maintenance", settings.seed);
+    json.seeds = seeds;
+    json.parameter("trials", trials)?;
+    json.parameter("camera_scale", camera_scale)?;
+    json.section("bins", &bins)?;
+    let answers: Vec<_> = results
+        .iter()
+        .map(|r| {
+            (
+                r.spec.condition.clone(),
+                r.spec.seed,
+                r.verdict.calibration.clone(),
+            )
+        })
+        .collect();
+    json.section("answers", &answers)?;
+    json.write(settings.out.root())?;
+    let path = report.write(settings.out.root())?;
+    crate::cmd::print_stdout(&path.display().to_string())
+}

@@ -1,0 +1,272 @@
+//! Simulated task runs for the `tasks`, `light`, `wind` and `maintenance` experiments: one
+//! scenario per run, recorded through the very pipeline `rodlog record` uses (the simulator,
+//! `robot_state`, `calibration`, `task`), then judged by [`crate::judge`] against the
+//! simulator's truth. The recording is written to a temporary file and deleted (kept with
+//! `keep`), so a failed run can be replayed and looked at.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use recorder::{ChunkCompression, RecordOptions, SinkOptions};
+use serde::Serialize;
+
+use crate::judge::{Verdict, judge};
+
+/// One run's conditions.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RunSpec {
+    /// Condition label (for tables).
+    pub condition: String,
+    /// `hang`, `remove` or `check`.
+    pub task: String,
+    /// World seed.
+    pub seed: u64,
+    /// Local solar hour at the start.
+    pub hour: f64,
+    /// Mean of the 3-s mean wind (m/s).
+    pub wind_mps: f64,
+    /// Camera-mount bump at 0.5 s: `(rotation deg, translation mm)`; `None`: no bump. A
+    /// value of NaN is drawn from the seed (DESIGN.md s6: 1-3 deg, 3-10 mm).
+    pub bump: Option<(f64, f64)>,
+    /// The task checks (and repairs) its calibration before operating.
+    pub self_maintenance: bool,
+    /// Wrist camera resolution factor of 1280x1024.
+    pub camera_scale: f64,
+    /// Robot time to simulate (s).
+    pub duration_s: f64,
+}
+
+impl RunSpec {
+    /// The scenario file of the run.
+    #[must_use]
+    pub fn scenario_toml(&self) -> String {
+        let mut t = format!(
+            "name = \"{task}-{seed}\"\nseed = {seed}\nduration_s = {dur:?}\nhour = {hour:?}\ntask = \"{task}\"\n\n[wind]\nmean_mps = {wind:?}\n",
+            task = self.task,
+            seed = self.seed,
+            dur = self.duration_s,
+            hour = self.hour,
+            wind = self.wind_mps,
+        );
+        if let Some((rot, trans)) = self.bump {
+            t.push_str("\n[bump]\ntime_s = 0.5\n");
+            if rot.is_finite() {
+                t.push_str(&format!("rot_deg = {rot:?}\n"));
+            }
+            if trans.is_finite() {
+                t.push_str(&format!("trans_mm = {trans:?}\n"));
+            }
+        }
+        if self.task == "remove" {
+            t.push_str("\n[robot]\nrod = \"hung\"\n");
+        }
+        t.push_str(&format!(
+            "\n[camera]\nscale = {:?}\n\n[panoramic]\nperiod_s = 1.0\n\n[parameters]\ntask.self_maintenance = {}\n",
+            self.camera_scale, self.self_maintenance
+        ));
+        t
+    }
+}
+
+/// One run's result.
+#[derive(Clone, Debug, Serialize)]
+pub struct RunResult {
+    /// What was run.
+    pub spec: RunSpec,
+    /// The judge's verdict.
+    pub verdict: Verdict,
+    /// Wall time of the simulation (s).
+    pub wall_s: f64,
+    /// The recording, when kept.
+    pub recording: Option<PathBuf>,
+}
+
+/// Records and judges one run in `dir` (module docs); the recording is deleted unless `keep`.
+///
+/// # Errors
+/// Scenario, pipeline, simulator and recording errors (a task refusing or failing is a
+/// result, not an error).
+pub fn run(spec: &RunSpec, dir: &Path, keep: bool) -> Result<RunResult> {
+    let text = spec.scenario_toml();
+    let origin = format!("{}-{}", spec.task, spec.seed);
+    let scenario = recorder::Scenario::parse(&text, &origin)
+        .with_context(|| format!("scenario of run {origin}"))?;
+    let out = dir.join(format!(
+        "{}-{}-{}.mcap",
+        spec.condition.replace([' ', '/'], "_"),
+        spec.task,
+        spec.seed
+    ));
+    let options = RecordOptions {
+        out: out.clone(),
+        sink: SinkOptions {
+            compression: ChunkCompression::Lz4,
+            ..SinkOptions::default()
+        },
+        realtime: false,
+        threads: Some(1),
+    };
+    let started = std::time::Instant::now();
+    crate::cmd::record::record_scenario(&scenario, &options, Vec::new())?;
+    let wall_s = started.elapsed().as_secs_f64();
+    let verdict = judge(&out)?;
+    let recording = if keep {
+        Some(out)
+    } else {
+        std::fs::remove_file(&out).with_context(|| format!("removing {}", out.display()))?;
+        None
+    };
+    Ok(RunResult {
+        spec: spec.clone(),
+        verdict,
+        wall_s,
+        recording,
+    })
+}
+
+/// Runs every spec (in parallel; results in spec order, whatever the thread count),
+/// ticking `progress` once per run.
+///
+/// # Errors
+/// The first run that could not be simulated.
+pub fn run_all(
+    specs: &[RunSpec],
+    dir: &Path,
+    progress: &super::progress::Progress,
+) -> Result<Vec<RunResult>> {
+    use rayon::prelude::*;
+    specs
+        .par_iter()
+        .map(|s| {
+            let r = run(s, dir, false);
+            progress.inc(1);
+            r
+        })
+        .collect()
+}
+
+/// Outcome counts and times of a group of runs.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct GroupSummary {
+    /// The group (condition) label.
+    pub condition: String,
+    /// Runs.
+    pub runs: usize,
+    /// Runs that ended DONE with the rod where the task wanted it (judged with truth).
+    pub success: usize,
+    /// Runs the robot refused (a safety gate or an unverifiable state), by the robot's word.
+    pub refused: usize,
+    /// Runs that failed (a miss, a timeout) or ended DONE but were judged unsuccessful.
+    pub failed: usize,
+    /// Unsafe commands over the group (judged with truth).
+    pub unsafe_commands: usize,
+    /// `success / runs`.
+    pub success_rate: f64,
+    /// Median operation time of the successful runs (s).
+    pub median_s: f64,
+    /// Longest operation time of any run that ended (s).
+    pub max_s: f64,
+    /// Runs whose operation took 300 s or more.
+    pub over_5_min: usize,
+    /// End reasons (`reason_code`) with counts.
+    pub reasons: std::collections::BTreeMap<String, usize>,
+    /// Median fraction of the hook's capture window used (successful hangs).
+    pub median_hook_fraction: f64,
+}
+
+/// Summarises `runs` under `condition`.
+#[must_use]
+pub fn summarize(condition: &str, runs: &[&RunResult]) -> GroupSummary {
+    let mut g = GroupSummary {
+        condition: condition.to_owned(),
+        runs: runs.len(),
+        ..GroupSummary::default()
+    };
+    let mut times = Vec::new();
+    let mut hooks = Vec::new();
+    for r in runs {
+        let v = &r.verdict;
+        g.unsafe_commands += v.unsafe_commands.len();
+        if v.success {
+            g.success += 1;
+            if let Some(t) = v.operation_s {
+                times.push(t);
+            }
+            if let Some(h) = v.hook {
+                hooks.push(h.window_fraction);
+            }
+        } else if v.outcome == "refused" {
+            g.refused += 1;
+        } else {
+            g.failed += 1;
+        }
+        if let Some(t) = v.operation_s {
+            g.max_s = g.max_s.max(t);
+            if t >= 300.0 {
+                g.over_5_min += 1;
+            }
+        }
+        let reason = if v.success {
+            "done".to_owned()
+        } else if v.reason_code.is_empty() || v.reason_code == "done" {
+            format!("{} ({})", v.outcome, v.rod_state)
+        } else {
+            v.reason_code.clone()
+        };
+        *g.reasons.entry(reason).or_insert(0) += 1;
+    }
+    g.success_rate = if g.runs == 0 {
+        f64::NAN
+    } else {
+        g.success as f64 / g.runs as f64
+    };
+    g.median_s = super::stats::Summary::of(&times).median;
+    g.median_hook_fraction = super::stats::Summary::of(&hooks).median;
+    g
+}
+
+/// The outcome table of `groups`.
+#[must_use]
+pub fn outcome_table(first_column: &str, groups: &[GroupSummary]) -> super::report::Table {
+    use super::report::{Table, fmt_num, fmt_pct};
+    let mut t = Table::new(&[
+        first_column,
+        "runs",
+        "success",
+        "rate",
+        "refused",
+        "failed",
+        "unsafe",
+        "median time (s)",
+        "max time (s)",
+        ">= 5 min",
+        "reasons",
+    ]);
+    for g in groups {
+        let reasons: Vec<String> = g.reasons.iter().map(|(k, v)| format!("{k} {v}")).collect();
+        t.row(vec![
+            g.condition.clone(),
+            g.runs.to_string(),
+            g.success.to_string(),
+            fmt_pct(g.success_rate, 0),
+            g.refused.to_string(),
+            g.failed.to_string(),
+            g.unsafe_commands.to_string(),
+            fmt_num(g.median_s, 1),
+            fmt_num(g.max_s, 1),
+            g.over_5_min.to_string(),
+            reasons.join(", "),
+        ]);
+    }
+    t
+}
+
+/// A temporary folder for the runs' recordings, inside the experiment's output folder.
+///
+/// # Errors
+/// File system errors.
+pub fn runs_dir(out: &super::OutputDir) -> Result<PathBuf> {
+    let dir = out.root().join("runs");
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    Ok(dir)
+}

@@ -1,0 +1,126 @@
+//! `rodlog experiment wind` (issue 12, DESIGN.md s7): hang success vs the mean wind speed
+//! ("wind" = the 3-s mean; operations are allowed at <= 2 m/s, gusts above it are normal).
+//!
+//! Each mean speed gets `--trials` seeded hangs at midday with the self-maintenance on and
+//! no bump. The wind gate (`control::tasks::safety`) works on the noisy, lagged anemometer;
+//! the judge ([`crate::judge`]) counts every command issued while the *true* 3-s mean
+//! exceeded 2 m/s as unsafe: there must be none, and the robot should still work when the
+//! mean is well below the limit.
+
+use anyhow::Result;
+
+use super::progress::Progress;
+use super::report::{Report, Results, fmt_num};
+use super::task_runs::{GroupSummary, RunSpec, outcome_table, run_all, runs_dir, summarize};
+use super::{Settings, trial_seed};
+
+/// Trials per speed when `--trials` is not given.
+pub const DEFAULT_TRIALS: usize = 10;
+/// Mean wind speeds (m/s).
+pub const SPEEDS_MPS: [f64; 9] = [0.0, 0.5, 1.0, 1.5, 1.8, 2.0, 2.2, 2.5, 3.0];
+
+/// Runs the experiment (module docs).
+///
+/// # Errors
+/// Simulation, judging, plotting or writing failures.
+pub fn run(settings: &Settings) -> Result<()> {
+    let trials = settings.trials_or(DEFAULT_TRIALS);
+    let camera_scale = super::tasks::CAMERA_SCALE * settings.image_scale;
+    let mut specs = Vec::new();
+    let mut seeds = Vec::new();
+    for (k, speed) in SPEEDS_MPS.iter().enumerate() {
+        for t in 0..trials {
+            let seed = trial_seed(settings.seed, 200 + k as u64, t as u64);
+            seeds.push(seed);
+            specs.push(RunSpec {
+                condition: format!("{speed:.1} m/s"),
+                task: "hang".into(),
+                seed,
+                hour: 11.0 + 2.0 * sim::rng::uniform(seed, 0x31D, 0),
+                wind_mps: *speed,
+                bump: None,
+                self_maintenance: true,
+                camera_scale,
+                duration_s: 320.0,
+            });
+        }
+    }
+    let progress = Progress::new("wind", specs.len() as u64);
+    let results = run_all(&specs, &runs_dir(&settings.out)?, &progress)?;
+    progress.finish();
+    let groups: Vec<GroupSummary> = specs
+        .iter()
+        .step_by(trials)
+        .map(|s| {
+            let runs: Vec<_> = results
+                .iter()
+                .filter(|r| r.spec.condition == s.condition)
+                .collect();
+            summarize(&s.condition, &runs)
+        })
+        .collect();
+    let max_wind: Vec<f64> = specs
+        .iter()
+        .step_by(trials)
+        .map(|s| {
+            results
+                .iter()
+                .filter(|r| r.spec.condition == s.condition)
+                .map(|r| r.verdict.max_wind_at_command_mps)
+                .fold(0.0, f64::max)
+        })
+        .collect();
+    let unsafe_total: usize = groups.iter().map(|g| g.unsafe_commands).sum();
+    let mut report = Report::new("Wind: hang success vs mean wind speed");
+    report.paragraph(&format!(
+        "{trials} seeded hangs per mean speed, 11:00-13:00, self-maintenance on, no bump, wrist \
+         camera {}x{}. Unsafe = a command issued while the true 3-s mean wind exceeded 2 m/s \
+         (or one that collides or exceeds a limit). Unsafe commands over all runs: {unsafe_total}.",
+        (1280.0 * camera_scale).round(),
+        (1024.0 * camera_scale).round()
+    ));
+    report.table(&outcome_table("mean wind", &groups));
+    let mut t = super::report::Table::new(&["mean wind", "max true 3-s mean at a command (m/s)"]);
+    for (g, w) in groups.iter().zip(&max_wind) {
+        t.row(vec![g.condition.clone(), fmt_num(*w, 2)]);
+    }
+    report.table(&t);
+    let plot = viz::plots::LinePlot {
+        title: "Hang outcome vs mean wind".into(),
+        x_label: "mean wind (m/s)".into(),
+        y_label: "runs (%)".into(),
+        series: vec![
+            viz::plots::Line {
+                name: "success".into(),
+                points: SPEEDS_MPS
+                    .iter()
+                    .zip(&groups)
+                    .map(|(s, g)| (*s, 100.0 * g.success_rate))
+                    .collect(),
+                band: Vec::new(),
+            },
+            viz::plots::Line {
+                name: "refused".into(),
+                points: SPEEDS_MPS
+                    .iter()
+                    .zip(&groups)
+                    .map(|(s, g)| (*s, 100.0 * g.refused as f64 / g.runs.max(1) as f64))
+                    .collect(),
+                band: Vec::new(),
+            },
+        ],
+    };
+    let files = viz::plots::write_line_plot(&plot, &settings.out.plot_stem("success_by_wind"))?;
+    report.image("success by wind", &settings.out.relative(&files.png));
+    let mut json = Results::new("wind", settings.seed);
+    json.seeds = seeds;
+    json.parameter("trials", trials)?;
+    json.parameter("speeds_mps", SPEEDS_MPS)?;
+    json.parameter("camera_scale", camera_scale)?;
+    json.section("groups", &groups)?;
+    json.section("max_true_wind_at_command_mps", &max_wind)?;
+    json.section("unsafe_commands", unsafe_total)?;
+    json.write(settings.out.root())?;
+    let path = report.write(settings.out.root())?;
+    crate::cmd::print_stdout(&path.display().to_string())
+}
