@@ -284,12 +284,127 @@ struct Band {
     width: usize,
 }
 
+/// One primary ray of a tile: index in the band, ray, `d_z` of its unit camera-frame
+/// direction (depth = `t d_z`) and closest hit.
+#[derive(Clone, Copy)]
+struct TileRay {
+    j: usize,
+    ray: Ray,
+    dz: f64,
+    hit: Option<Hit>,
+}
+
 /// Per-thread buffers of [`render_tile`].
 #[derive(Default)]
 struct TileScratch {
-    rays: Vec<(usize, Ray, f64, Option<Hit>)>,
+    rays: Vec<TileRay>,
     primary: Candidates,
     shadow: Candidates,
+}
+
+/// Half-spaces `n_cam . p_cam >= 0` through the camera centre bounding the rays whose
+/// undistorted coordinates lie in `[x0, x1] x [y0, y1]` (widened by [`FRUSTUM_MARGIN`]),
+/// in the world frame, plus the half-space in front of the camera.
+fn frustum(cam: &Cam, x: [f64; 2], y: [f64; 2]) -> [Slab; 5] {
+    let (x0, x1) = (x[0] - FRUSTUM_MARGIN, x[1] + FRUSTUM_MARGIN);
+    let (y0, y1) = (y[0] - FRUSTUM_MARGIN, y[1] + FRUSTUM_MARGIN);
+    let o = cam.origin;
+    let planes = [
+        Vector3::new(1.0, 0.0, -x0),
+        Vector3::new(-1.0, 0.0, x1),
+        Vector3::new(0.0, 1.0, -y0),
+        Vector3::new(0.0, -1.0, y1),
+        Vector3::new(0.0, 0.0, 1.0),
+    ];
+    planes.map(|n| {
+        let nw = cam.r * n;
+        Slab {
+            normal: [nw.x, nw.y, nw.z],
+            lo: nw.dot(&o.coords),
+            hi: f64::INFINITY,
+        }
+    })
+}
+
+/// The beam swept from the box `[lo, hi]` of shadow-ray origins along the unit sun
+/// direction `s` (separating axes: two perpendiculars of `s`, `s` itself, the world axes),
+/// widened by [`BEAM_MARGIN_M`].
+fn shadow_beam(lo: [f64; 3], hi: [f64; 3], s: &Vector3<f64>) -> [Slab; 6] {
+    let e1 = crate::scene::primitives::perpendicular(s);
+    let e2 = s.cross(&e1);
+    let c = Vector3::new(
+        0.5 * (lo[0] + hi[0]),
+        0.5 * (lo[1] + hi[1]),
+        0.5 * (lo[2] + hi[2]),
+    );
+    let h = Vector3::new(
+        0.5 * (hi[0] - lo[0]),
+        0.5 * (hi[1] - lo[1]),
+        0.5 * (hi[2] - lo[2]),
+    );
+    let span = |a: &Vector3<f64>| {
+        let d = a.dot(&c);
+        let r = a.abs().dot(&h) + BEAM_MARGIN_M;
+        (d - r, d + r)
+    };
+    let (e1_lo, e1_hi) = span(&e1);
+    let (e2_lo, e2_hi) = span(&e2);
+    let (s_lo, _) = span(s);
+    let axis = |k: usize| {
+        let mut n = [0.0; 3];
+        n[k] = 1.0;
+        if s[k] >= 0.0 {
+            Slab {
+                normal: n,
+                lo: lo[k],
+                hi: f64::INFINITY,
+            }
+        } else {
+            Slab {
+                normal: n,
+                lo: f64::NEG_INFINITY,
+                hi: hi[k],
+            }
+        }
+    };
+    [
+        Slab {
+            normal: [e1.x, e1.y, e1.z],
+            lo: e1_lo,
+            hi: e1_hi,
+        },
+        Slab {
+            normal: [e2.x, e2.y, e2.z],
+            lo: e2_lo,
+            hi: e2_hi,
+        },
+        Slab {
+            normal: [s.x, s.y, s.z],
+            lo: s_lo,
+            hi: f64::INFINITY,
+        },
+        axis(0),
+        axis(1),
+        axis(2),
+    ]
+}
+
+/// Box of the hit points of `rays` (empty, `lo > hi`, if none hit), padded by the shadow
+/// bias and [`BEAM_MARGIN_M`] so it contains every shadow-ray origin.
+fn shadow_origins(rays: &[TileRay]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for r in rays {
+        if let Some(h) = &r.hit {
+            let p = r.ray.at(h.t_m);
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+    }
+    let pad = SHADOW_BIAS_M + BEAM_MARGIN_M;
+    (lo.map(|x| x - pad), hi.map(|x| x + pad))
 }
 
 /// Traces and shades the centre samples of the tile `cols` x `band`, calling
@@ -309,138 +424,47 @@ fn render_tile(
     mut out: impl FnMut(usize, &Shaded, f64),
 ) {
     let w = band.width;
-    // Frustum of the tile: x/z and y/z ranges of its rays (camera frame).
-    let (mut x0, mut x1, mut y0, mut y1) = (
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-    );
+    let o = [cam.origin.x, cam.origin.y, cam.origin.z];
     sc.rays.clear();
+    let mut x_range = [f64::INFINITY, f64::NEG_INFINITY];
+    let mut y_range = [f64::INFINITY, f64::NEG_INFINITY];
     for r in 0..band.rows {
         for c in cols.clone() {
             let j = r * w + c;
             let xy = table.get(band.row0 * w + j).copied().unwrap_or([0.0; 2]);
-            x0 = x0.min(xy[0]);
-            x1 = x1.max(xy[0]);
-            y0 = y0.min(xy[1]);
-            y1 = y1.max(xy[1]);
+            x_range = [x_range[0].min(xy[0]), x_range[1].max(xy[0])];
+            y_range = [y_range[0].min(xy[1]), y_range[1].max(xy[1])];
             let (ray, dz) = cam.ray(xy);
-            sc.rays.push((j, ray, dz, None));
+            sc.rays.push(TileRay {
+                j,
+                ray,
+                dz,
+                hit: None,
+            });
         }
     }
-    let (x0, x1) = (x0 - FRUSTUM_MARGIN, x1 + FRUSTUM_MARGIN);
-    let (y0, y1) = (y0 - FRUSTUM_MARGIN, y1 + FRUSTUM_MARGIN);
-    let o = cam.origin;
-    // Half-spaces n_cam . p_cam >= 0 through the camera centre, mapped to the world.
-    let planes = [
-        Vector3::new(1.0, 0.0, -x0),
-        Vector3::new(-1.0, 0.0, x1),
-        Vector3::new(0.0, 1.0, -y0),
-        Vector3::new(0.0, -1.0, y1),
-        Vector3::new(0.0, 0.0, 1.0),
-    ];
-    let slabs = planes.map(|n| {
-        let nw = cam.r * n;
-        Slab {
-            normal: [nw.x, nw.y, nw.z],
-            lo: nw.dot(&o.coords),
-            hi: f64::INFINITY,
-        }
-    });
-    scene.cull(&slabs, [o.x, o.y, o.z], CULL_LIMIT, &mut sc.primary);
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for (_, ray, _, hit) in &mut sc.rays {
-        *hit = scene.intersect_culled(ray, 0.0, f64::INFINITY, &sc.primary);
-        if let Some(h) = hit {
-            let p = ray.at(h.t_m);
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
+    let frustum = frustum(cam, x_range, y_range);
+    scene.cull(&frustum, o, o, CULL_LIMIT, &mut sc.primary);
+    for r in &mut sc.rays {
+        r.hit = scene.intersect_culled(&r.ray, 0.0, f64::INFINITY, &sc.primary);
     }
-    // Beam of the shadow rays: origins within the hit points' box (plus the bias), all
-    // along the sun direction.
-    let shadows = setup.casts_shadows() && lo[0] <= hi[0];
-    if shadows {
-        let pad = SHADOW_BIAS_M + BEAM_MARGIN_M;
-        let lo = lo.map(|x| x - pad);
-        let hi = hi.map(|x| x + pad);
-        let s = setup.sun_direction();
-        let e1 = crate::scene::primitives::perpendicular(&s);
-        let e2 = s.cross(&e1);
-        let c = Vector3::new(
-            0.5 * (lo[0] + hi[0]),
-            0.5 * (lo[1] + hi[1]),
-            0.5 * (lo[2] + hi[2]),
-        );
-        let h = Vector3::new(
-            0.5 * (hi[0] - lo[0]),
-            0.5 * (hi[1] - lo[1]),
-            0.5 * (hi[2] - lo[2]),
-        );
-        let span = |a: &Vector3<f64>| {
-            let d = a.dot(&c);
-            let r = a.abs().dot(&h) + BEAM_MARGIN_M;
-            (d - r, d + r)
-        };
-        let (e1_lo, e1_hi) = span(&e1);
-        let (e2_lo, e2_hi) = span(&e2);
-        let (s_lo, _) = span(&s);
-        let axis = |k: usize| {
-            let mut n = [0.0; 3];
-            n[k] = 1.0;
-            if s[k] >= 0.0 {
-                Slab {
-                    normal: n,
-                    lo: lo[k],
-                    hi: f64::INFINITY,
-                }
-            } else {
-                Slab {
-                    normal: n,
-                    lo: f64::NEG_INFINITY,
-                    hi: hi[k],
-                }
-            }
-        };
-        let beam = [
-            Slab {
-                normal: [e1.x, e1.y, e1.z],
-                lo: e1_lo,
-                hi: e1_hi,
-            },
-            Slab {
-                normal: [e2.x, e2.y, e2.z],
-                lo: e2_lo,
-                hi: e2_hi,
-            },
-            Slab {
-                normal: [s.x, s.y, s.z],
-                lo: s_lo,
-                hi: f64::INFINITY,
-            },
-            axis(0),
-            axis(1),
-            axis(2),
-        ];
-        scene.cull(&beam, [c.x, c.y, c.z], CULL_LIMIT, &mut sc.shadow);
-    } else if setup.casts_shadows() {
-        // No hit in the tile, so no shadow ray either; never leave a previous tile's
-        // candidates behind: the unbounded volume (no slabs) keeps everything.
-        scene.cull(&[], [o.x, o.y, o.z], CULL_LIMIT, &mut sc.shadow);
+    if setup.casts_shadows() {
+        let (lo, hi) = shadow_origins(&sc.rays);
+        if lo[0] <= hi[0] {
+            let beam = shadow_beam(lo, hi, &setup.sun_direction());
+            scene.cull(&beam, lo, hi, CULL_LIMIT, &mut sc.shadow);
+        }
+        // Without a hit in the tile no shadow ray is cast (the candidates go unused).
     }
     let shadow = &sc.shadow;
-    for (j, ray, dz, hit) in &sc.rays {
-        let s = match hit {
-            None => shade_sky(setup, ray),
-            Some(h) => shade_hit(scene, setup, ray, h, cam.footprint_per_m, |r| {
-                scene.occluded_culled(r, 0.0, f64::INFINITY, shadow)
+    for r in &sc.rays {
+        let s = match &r.hit {
+            None => shade_sky(setup, &r.ray),
+            Some(h) => shade_hit(scene, setup, &r.ray, h, cam.footprint_per_m, |sr| {
+                scene.occluded_culled(sr, 0.0, f64::INFINITY, shadow)
             }),
         };
-        out(*j, &s, *dz);
+        out(r.j, &s, r.dz);
     }
 }
 

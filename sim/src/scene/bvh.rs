@@ -56,6 +56,10 @@ impl Node {
     }
 
     /// Slab test in f32: entry distance if the ray meets the box before `t_max`.
+    ///
+    /// Plain comparisons (one `minss`/`maxss` each, no NaN handling): a NaN slab distance
+    /// (`0 * inf`, a ray parallel to a slab and exactly on its plane) only ever loosens the
+    /// interval, so the test stays conservative: it never rejects a box the ray meets.
     #[inline]
     fn hit(&self, o: &[f32; 3], inv: &[f32; 3], t_max: f32) -> Option<f32> {
         let mut t0 = 0.0_f32;
@@ -63,8 +67,9 @@ impl Node {
         for k in 0..3 {
             let a = (self.lo[k] - o[k]) * inv[k];
             let b = (self.hi[k] - o[k]) * inv[k];
-            t0 = t0.max(a.min(b));
-            t1 = t1.min(a.max(b));
+            let (near, far) = if a < b { (a, b) } else { (b, a) };
+            t0 = if near > t0 { near } else { t0 };
+            t1 = if far < t1 { far } else { t1 };
         }
         (t0 <= t1).then_some(t0)
     }
@@ -96,7 +101,10 @@ pub struct Slab {
 /// volume containing every ray of the bundle (see [`Bvh::cull`]).
 #[derive(Clone, Debug, Default)]
 pub struct Candidates {
-    boxes: Vec<Node>,
+    /// Candidate boxes with a lower bound of the distance along any ray of the bundle to
+    /// each (the distance between the box of ray origins and the candidate's box),
+    /// ascending.
+    boxes: Vec<(f64, Node)>,
     /// More than the limit passed to [`Bvh::cull`] matched: traverse the hierarchy instead.
     overflow: bool,
     /// Movable objects whose world box overlaps the volume (filled by `Scene::cull`).
@@ -257,9 +265,19 @@ impl Bvh {
     /// Collects into `out` every primitive whose (padded) box overlaps all `slabs`: when the
     /// slabs bound a bundle of rays, the closest and any hit of each ray over `out` equal
     /// those over the whole hierarchy. Gives up (`out.overflowed()`) beyond `limit`
-    /// candidates. Candidates are sorted by the distance of their box centre to `near`
-    /// (nearest first), ties by primitive index.
-    pub fn cull(&self, slabs: &[Slab], near: [f64; 3], limit: usize, out: &mut Candidates) {
+    /// candidates. `origins_lo ..= origins_hi` is a box containing every ray origin of the
+    /// bundle (one point for a camera's primary rays); candidates are sorted by the distance
+    /// between that box and theirs, a lower bound of any ray's entry distance (nearest
+    /// first, ties by primitive index), so closest-hit searches stop at the first candidate
+    /// farther than the best hit.
+    pub fn cull(
+        &self,
+        slabs: &[Slab],
+        origins_lo: [f64; 3],
+        origins_hi: [f64; 3],
+        limit: usize,
+        out: &mut Candidates,
+    ) {
         out.boxes.clear();
         out.overflow = false;
         if self.nodes.is_empty() {
@@ -285,7 +303,7 @@ impl Bvh {
                             out.boxes.clear();
                             return;
                         }
-                        out.boxes.push(*pb);
+                        out.boxes.push((0.0, *pb));
                     }
                 }
             } else if sp + 2 <= STACK_DEPTH {
@@ -295,12 +313,22 @@ impl Bvh {
                 sp += 2;
             }
         }
-        let key = |n: &Node| {
-            let d = [0, 1, 2].map(|k| 0.5 * (f64::from(n.lo[k]) + f64::from(n.hi[k])) - near[k]);
-            d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+        // Box-to-box distance: per axis the gap between the intervals (0 if they overlap).
+        let gap = |n: &Node| {
+            let mut d2 = 0.0;
+            for k in 0..3 {
+                let g = (f64::from(n.lo[k]) - origins_hi[k])
+                    .max(origins_lo[k] - f64::from(n.hi[k]))
+                    .max(0.0);
+                d2 += g * g;
+            }
+            d2.sqrt()
         };
+        for (t, n) in &mut out.boxes {
+            *t = gap(n);
+        }
         out.boxes
-            .sort_by(|a, b| key(a).total_cmp(&key(b)).then(a.index.cmp(&b.index)));
+            .sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.index.cmp(&b.1.index)));
     }
 
     /// Closest hit over culled candidates (the whole hierarchy if they overflowed).
@@ -319,7 +347,11 @@ impl Bvh {
         let (o, inv) = f32_ray(ray);
         let mut best = None;
         let mut t_best = t_max;
-        for c in &cands.boxes {
+        for &(t_lo, ref c) in &cands.boxes {
+            // Sorted by the lower bound: nothing farther can beat the best hit.
+            if t_lo >= t_best {
+                break;
+            }
             if c.hit(&o, &inv, t_best as f32).is_none() {
                 continue;
             }
@@ -353,7 +385,7 @@ impl Bvh {
         }
         let (o, inv) = f32_ray(ray);
         let t_hi = t_max as f32;
-        cands.boxes.iter().find_map(|c| {
+        cands.boxes.iter().find_map(|(_, c)| {
             c.hit(&o, &inv, t_hi)?;
             let p = self.prims.get(c.index as usize)?;
             p.shape.intersect(ray, t_min, t_max).map(|_| c.index)

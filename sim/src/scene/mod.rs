@@ -490,11 +490,18 @@ impl Scene {
     }
 
     /// Culls the static hierarchy and the movable objects with a convex volume (`slabs`)
-    /// that contains a bundle of rays (a pixel tile's frustum, a beam of shadow rays); see
-    /// [`Bvh::cull`]. `near` orders the static candidates (nearest box centre first), `limit`
-    /// caps their number.
-    pub fn cull(&self, slabs: &[Slab], near: [f64; 3], limit: usize, out: &mut Candidates) {
-        self.statics.cull(slabs, near, limit, out);
+    /// that contains a bundle of rays (a pixel tile's frustum, a beam of shadow rays) whose
+    /// origins lie in the box `origins_lo ..= origins_hi`; see [`Bvh::cull`]. `limit` caps
+    /// the number of static candidates.
+    pub fn cull(
+        &self,
+        slabs: &[Slab],
+        origins_lo: [f64; 3],
+        origins_hi: [f64; 3],
+        limit: usize,
+        out: &mut Candidates,
+    ) {
+        self.statics.cull(slabs, origins_lo, origins_hi, limit, out);
         out.objects.clear();
         for (i, obj) in self.objects.iter().enumerate() {
             // A 1 mm pad covers the rounding of the transformed corners.

@@ -338,9 +338,10 @@ impl Shape {
                     let inv = 1.0 / d[k];
                     let a = (-half_extents_m[k] - o[k]) * inv;
                     let b = (half_extents_m[k] - o[k]) * inv;
+                    // Finite (d != 0): plain comparisons equal f64::max/min here.
                     let (near, far) = if a < b { (a, b) } else { (b, a) };
-                    t0 = t0.max(near);
-                    t1 = t1.min(far);
+                    t0 = if near > t0 { near } else { t0 };
+                    t1 = if far < t1 { far } else { t1 };
                 }
                 if t0 > t1 {
                     None
