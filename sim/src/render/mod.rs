@@ -48,6 +48,7 @@ pub use depth_sensor::{DepthSensorParams, depth_to_mm};
 pub use light::LightConditions;
 pub use rgb_sensor::{Exposure, RgbSensorParams};
 
+use crate::scene::textures::NoiseCache;
 use crate::scene::{Candidates, Hit, Ray, Scene, Slab};
 use depth_sensor::DepthSample;
 use rgb_sensor::{HISTOGRAM_BINS, histogram_bin, srgb_lut};
@@ -300,6 +301,7 @@ struct TileScratch {
     rays: Vec<TileRay>,
     primary: Candidates,
     shadow: Candidates,
+    noise: NoiseCache,
 }
 
 /// Half-spaces `n_cam . p_cam >= 0` through the camera centre bounding the rays whose
@@ -457,10 +459,11 @@ fn render_tile(
         // Without a hit in the tile no shadow ray is cast (the candidates go unused).
     }
     let shadow = &sc.shadow;
+    let noise = &mut sc.noise;
     for r in &sc.rays {
         let s = match &r.hit {
             None => shade_sky(setup, &r.ray),
-            Some(h) => shade_hit(scene, setup, &r.ray, h, cam.footprint_per_m, |sr| {
+            Some(h) => shade_hit(scene, setup, &r.ray, h, cam.footprint_per_m, noise, |sr| {
                 scene.occluded_culled(sr, 0.0, f64::INFINITY, shadow)
             }),
         };
