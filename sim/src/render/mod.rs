@@ -51,7 +51,7 @@ pub use rgb_sensor::{Exposure, RgbSensorParams};
 use crate::scene::textures::NoiseCache;
 use crate::scene::{Candidates, Hit, Ray, Scene, Slab};
 use depth_sensor::DepthSample;
-use rgb_sensor::{HISTOGRAM_BINS, histogram_bin, srgb_lut};
+use rgb_sensor::{HISTOGRAM_BINS, histogram_bin};
 use shading::{LightSetup, SHADOW_BIAS_M, Shaded, TraceHints, shade_hit, shade_sky, trace};
 
 /// Errors of rendering.
@@ -278,6 +278,21 @@ fn interpolate_rays(
     Some(lerp(lerp(p00, p10, fx), lerp(p01, p11, fx), fy))
 }
 
+/// Whether pixel `(col, row)` of a `w` x `h` key image sees another primitive than one of
+/// its 4-neighbours.
+#[inline(always)]
+fn primitive_edge(keys: &[u32], w: usize, h: usize, col: usize, row: usize) -> bool {
+    let p = row * w + col;
+    let Some(&kc) = keys.get(p) else {
+        return false;
+    };
+    let differs = |q: usize| keys.get(q).is_some_and(|&k| k != kc);
+    (col > 0 && differs(p - 1))
+        || (col + 1 < w && differs(p + 1))
+        || (row > 0 && differs(p - w))
+        || (row + 1 < h && differs(p + w))
+}
+
 /// Rows `row0 .. row0 + rows` of a `width`-pixel image.
 struct Band {
     row0: usize,
@@ -285,14 +300,25 @@ struct Band {
     width: usize,
 }
 
-/// One primary ray of a tile: index in the band, ray, `d_z` of its unit camera-frame
-/// direction (depth = `t d_z`) and closest hit.
+/// One primary ray of a tile: index in the band, pixel column and row, ray, `d_z` of its
+/// unit camera-frame direction (depth = `t d_z`) and closest hit.
 #[derive(Clone, Copy)]
 struct TileRay {
     j: usize,
+    col: u32,
+    row: u32,
     ray: Ray,
     dz: f64,
     hit: Option<Hit>,
+}
+
+/// `[min, max]` grown by `x` (finite values: plain comparisons, one `minsd`/`maxsd` each).
+#[inline(always)]
+fn grow(range: [f64; 2], x: f64) -> [f64; 2] {
+    [
+        if x < range[0] { x } else { range[0] },
+        if x > range[1] { x } else { range[1] },
+    ]
 }
 
 /// Per-thread buffers of [`render_tile`].
@@ -400,8 +426,7 @@ fn shadow_origins(rays: &[TileRay]) -> ([f64; 3], [f64; 3]) {
         if let Some(h) = &r.hit {
             let p = r.ray.at(h.t_m);
             for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
+                [lo[k], hi[k]] = grow([lo[k], hi[k]], p[k]);
             }
         }
     }
@@ -410,7 +435,7 @@ fn shadow_origins(rays: &[TileRay]) -> ([f64; 3], [f64; 3]) {
 }
 
 /// Traces and shades the centre samples of the tile `cols` x `band`, calling
-/// `out(index in band, shaded, dz)` per pixel. Primary rays are tested only against the
+/// `out(index in band, column, row, shaded, dz)` per pixel. Primary rays are tested only against the
 /// static primitives inside the tile's frustum, shadow rays only against those inside the
 /// beam swept by the tile's hit points towards the sun (both exact: the volumes contain
 /// every ray).
@@ -423,7 +448,7 @@ fn render_tile(
     band: &Band,
     cols: std::ops::Range<usize>,
     sc: &mut TileScratch,
-    mut out: impl FnMut(usize, &Shaded, f64),
+    mut out: impl FnMut(usize, u32, u32, &Shaded, f64),
 ) {
     let w = band.width;
     let o = [cam.origin.x, cam.origin.y, cam.origin.z];
@@ -434,11 +459,13 @@ fn render_tile(
         for c in cols.clone() {
             let j = r * w + c;
             let xy = table.get(band.row0 * w + j).copied().unwrap_or([0.0; 2]);
-            x_range = [x_range[0].min(xy[0]), x_range[1].max(xy[0])];
-            y_range = [y_range[0].min(xy[1]), y_range[1].max(xy[1])];
+            x_range = grow(x_range, xy[0]);
+            y_range = grow(y_range, xy[1]);
             let (ray, dz) = cam.ray(xy);
             sc.rays.push(TileRay {
                 j,
+                col: c as u32,
+                row: (band.row0 + r) as u32,
                 ray,
                 dz,
                 hit: None,
@@ -467,7 +494,7 @@ fn render_tile(
                 scene.occluded_culled(sr, 0.0, f64::INFINITY, shadow)
             }),
         };
-        out(r.j, &s, r.dz);
+        out(r.j, r.col, r.row, &s, r.dz);
     }
 }
 
@@ -521,7 +548,7 @@ pub fn render_rgbd_with_rays(
                     &band,
                     cols,
                     &mut scratch,
-                    |j, s: &Shaded, dz| {
+                    |j, col, row, s: &Shaded, dz| {
                         let p = band.row0 * w + j;
                         if let Some(r) = rad.get_mut(j) {
                             *r = s.radiance;
@@ -539,8 +566,8 @@ pub fn render_rgbd_with_rays(
                                 &sample,
                                 seed,
                                 p as u64,
-                                (p % w) as u32,
-                                (p / w) as u32,
+                                col,
+                                row,
                             );
                         }
                     },
@@ -557,42 +584,41 @@ pub fn render_rgbd_with_rays(
             .zip(depth.par_chunks_mut(chunk))
             .enumerate()
             .map(|(ci, (rad, dep))| {
-                let p0 = ci * chunk;
+                let row0 = ci * TILE;
                 let mut hints = TraceHints::default();
                 let mut count = 0;
-                for (j, (r, d)) in rad.iter_mut().zip(dep.iter_mut()).enumerate() {
-                    let p = p0 + j;
-                    let (col, row) = (p % w, p / w);
-                    let kc = keys[p];
-                    let edge = (col > 0 && keys[p - 1] != kc)
-                        || (col + 1 < w && keys[p + 1] != kc)
-                        || (row > 0 && keys[p - w] != kc)
-                        || (row + 1 < h && keys[p + w] != kc);
-                    if !edge {
-                        continue;
-                    }
-                    count += 1;
-                    let guess = table.get(p).copied().unwrap_or([0.0; 2]);
-                    let mut acc = *r;
-                    let mut z_min = f64::INFINITY;
-                    let mut z_max = 0.0_f64;
-                    for off in RGSS {
-                        let xy = interpolate_rays(table, w, h, col, row, off).unwrap_or(guess);
-                        let (ray, dz) = cam.ray(xy);
-                        let s: Shaded = trace(scene, &setup, &ray, cam.footprint_per_m, &mut hints);
-                        for (a, x) in acc.iter_mut().zip(s.radiance) {
-                            *a += x;
+                let rows = rad.chunks_mut(w.max(1)).zip(dep.chunks_mut(w.max(1)));
+                for (dr, (rad_row, dep_row)) in rows.enumerate() {
+                    let row = row0 + dr;
+                    for (col, (r, d)) in rad_row.iter_mut().zip(dep_row.iter_mut()).enumerate() {
+                        if !primitive_edge(keys, w, h, col, row) {
+                            continue;
                         }
-                        let z = s.t_m * dz;
-                        z_min = z_min.min(z);
-                        z_max = z_max.max(z);
-                    }
-                    *r = acc.map(|x| x * 0.2);
-                    if sensor.depth.holes_enabled
-                        && d.is_finite()
-                        && (z_max - z_min) > sensor.depth.flying_pixel_ratio * z_min
-                    {
-                        *d = f32::NAN;
+                        count += 1;
+                        let p = row * w + col;
+                        let guess = table.get(p).copied().unwrap_or([0.0; 2]);
+                        let mut acc = *r;
+                        let mut z_min = f64::INFINITY;
+                        let mut z_max = 0.0_f64;
+                        for off in RGSS {
+                            let xy = interpolate_rays(table, w, h, col, row, off).unwrap_or(guess);
+                            let (ray, dz) = cam.ray(xy);
+                            let s: Shaded =
+                                trace(scene, &setup, &ray, cam.footprint_per_m, &mut hints);
+                            for (a, x) in acc.iter_mut().zip(s.radiance) {
+                                *a += x;
+                            }
+                            let z = s.t_m * dz;
+                            z_min = z_min.min(z);
+                            z_max = z_max.max(z);
+                        }
+                        *r = acc.map(|x| x * 0.2);
+                        if sensor.depth.holes_enabled
+                            && d.is_finite()
+                            && (z_max - z_min) > sensor.depth.flying_pixel_ratio * z_min
+                        {
+                            *d = f32::NAN;
+                        }
                     }
                 }
                 count
@@ -637,20 +663,14 @@ pub fn render_rgbd_with_rays(
     let exposure = sensor.rgb.auto_exposure(&histogram);
 
     // Pass 3: sensor noise and quantisation.
-    let lut = srgb_lut();
     let rgb_seed = crate::scene::noise::splitmix64(seed ^ RGB_SALT);
     let mut rgb = vec![0u8; 3 * n];
     rgb.par_chunks_mut(3 * chunk)
         .zip(radiance.par_chunks(chunk))
         .enumerate()
         .for_each(|(ci, (out, rad))| {
-            let p0 = ci * chunk;
-            for (j, (o, r)) in out.chunks_exact_mut(3).zip(rad).enumerate() {
-                let l = [r[0] * wb[0], r[1] * wb[1], r[2] * wb[2]];
-                sensor
-                    .rgb
-                    .expose_pixel(l, &exposure, rgb_seed, (p0 + j) as u64, &lut, o);
-            }
+            let p0 = (ci * chunk) as u64;
+            sensor.rgb.expose_run(rad, wb, &exposure, rgb_seed, p0, out);
         });
 
     RgbdFrame {
@@ -800,7 +820,7 @@ mod tests {
                             &band,
                             cols,
                             &mut scratch,
-                            |j, s, _| {
+                            |j, _, _, s, _| {
                                 let p = row0 * w + j;
                                 let (ray, _) = cam.ray(table[p]);
                                 let mut hints = TraceHints::default();

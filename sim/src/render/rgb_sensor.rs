@@ -25,6 +25,9 @@
 
 use crate::scene::noise::splitmix64;
 
+/// SplitMix64's increment (the golden-ratio odd constant).
+const SPLITMIX_GAMMA: u64 = 0x9e37_79b9_7f4a_7c15;
+
 /// Colour sensor parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RgbSensorParams {
@@ -83,15 +86,35 @@ pub const HISTOGRAM_OCTAVES: usize = 48;
 /// Number of bins (bin 0 also holds everything darker).
 pub const HISTOGRAM_BINS: usize = HISTOGRAM_BINS_PER_OCTAVE * HISTOGRAM_OCTAVES;
 
-/// Histogram bin of a luminance (cd/m^2).
+/// `2^(k/8)`, k = 1..7: the bin edges within an octave.
+const OCTAVE_EDGES: [f32; HISTOGRAM_BINS_PER_OCTAVE - 1] = [
+    1.090_507_7,
+    1.189_207_1,
+    1.296_839_6,
+    std::f32::consts::SQRT_2,
+    1.542_210_8,
+    1.681_792_8,
+    1.834_008_1,
+];
+
+/// Histogram bin of a luminance (cd/m^2): `floor(8 (log2 y + 24))` clamped to the bins,
+/// from the float's bits (octave = exponent, eighth of an octave = how many edges
+/// `2^(k/8)` the mantissa reaches) instead of a `log2` call.
 #[inline]
 #[must_use]
 pub fn histogram_bin(y: f32) -> usize {
     if y.is_nan() || y <= 0.0 {
         return 0;
     }
-    let l = (y.log2() - HISTOGRAM_MIN_LOG2 as f32) * HISTOGRAM_BINS_PER_OCTAVE as f32;
-    (l.max(0.0) as usize).min(HISTOGRAM_BINS - 1)
+    let bits = y.to_bits();
+    let octave = ((bits >> 23) & 0xff) as i32 - 127 - HISTOGRAM_MIN_LOG2;
+    let mantissa = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000);
+    let eighths = OCTAVE_EDGES
+        .iter()
+        .map(|&e| i32::from(mantissa >= e))
+        .sum::<i32>();
+    let bin = octave * HISTOGRAM_BINS_PER_OCTAVE as i32 + eighths;
+    bin.clamp(0, HISTOGRAM_BINS as i32 - 1) as usize
 }
 
 fn bin_center(i: usize) -> f64 {
@@ -112,12 +135,16 @@ pub fn srgb_encode(v: f64) -> f64 {
 /// Entries of the linear -> sRGB byte table.
 pub const SRGB_LUT_SIZE: usize = 1 << 16;
 
-/// Table `lut[i] = round(255 srgb(i / (SRGB_LUT_SIZE - 1)))`.
+/// Table `lut[i] = round(255 srgb(i / (SRGB_LUT_SIZE - 1)))`, computed once per process (a
+/// constant: 65 536 `powf` calls are worth skipping on every capture).
 #[must_use]
-pub fn srgb_lut() -> Vec<u8> {
-    (0..SRGB_LUT_SIZE)
-        .map(|i| (255.0 * srgb_encode(i as f64 / (SRGB_LUT_SIZE - 1) as f64)).round() as u8)
-        .collect()
+pub fn srgb_lut() -> &'static [u8] {
+    static LUT: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
+    LUT.get_or_init(|| {
+        (0..SRGB_LUT_SIZE)
+            .map(|i| (255.0 * srgb_encode(i as f64 / (SRGB_LUT_SIZE - 1) as f64)).round() as u8)
+            .collect()
+    })
 }
 
 impl RgbSensorParams {
@@ -169,29 +196,87 @@ impl RgbSensorParams {
         lut: &[u8],
         out: &mut [u8],
     ) {
-        let e_scale = self.sensitivity_e_per_nit_s * exposure.exposure_s;
-        let to_v = exposure.gain / self.full_well_electrons;
-        let read2 = self.read_noise_electrons * self.read_noise_electrons;
-        for (c, o) in out.iter_mut().enumerate().take(3) {
-            let mut e = (f64::from(radiance[c]) * e_scale).max(0.0);
-            if self.noise_enabled {
-                let n = standard_normal(seed, pixel * 3 + c as u64);
-                e += (e + read2).sqrt() * n;
+        let chain = ExposureChain::new(self, exposure);
+        if let Ok(o) = <&mut [u8; 3]>::try_from(out) {
+            chain.pixel(radiance, seed, pixel, lut, o);
+        }
+    }
+
+    /// [`Self::expose_pixel`] (with the [`srgb_lut`] table) for a run of consecutive pixels:
+    /// `radiance[j]` is pixel `first_pixel + j` before white balance, `out` holds 3 bytes
+    /// per pixel.
+    pub fn expose_run(
+        &self,
+        radiance: &[[f32; 3]],
+        white_balance: [f32; 3],
+        exposure: &Exposure,
+        seed: u64,
+        first_pixel: u64,
+        out: &mut [u8],
+    ) {
+        let lut = srgb_lut();
+        let chain = ExposureChain::new(self, exposure);
+        for ((j, r), o) in radiance.iter().enumerate().zip(out.chunks_exact_mut(3)) {
+            let l = [
+                r[0] * white_balance[0],
+                r[1] * white_balance[1],
+                r[2] * white_balance[2],
+            ];
+            if let Ok(o) = <&mut [u8; 3]>::try_from(o) {
+                chain.pixel(l, seed, first_pixel + j as u64, lut, o);
             }
-            let e = e.clamp(0.0, self.full_well_electrons);
-            let v = (e * to_v).clamp(0.0, 1.0);
-            let i = (v * (SRGB_LUT_SIZE - 1) as f64 + 0.5) as usize;
-            *o = lut.get(i).copied().unwrap_or(255);
+        }
+    }
+}
+
+/// Per-capture constants of the signal chain (module docs, steps 2-5).
+struct ExposureChain {
+    /// Electrons per cd/m^2: `S t`.
+    e_scale: f64,
+    /// Table index per electron: `g / FW (SRGB_LUT_SIZE - 1)`.
+    index_per_e: f64,
+    read2: f64,
+    full_well: f64,
+    noise: bool,
+}
+
+impl ExposureChain {
+    fn new(p: &RgbSensorParams, exposure: &Exposure) -> Self {
+        Self {
+            e_scale: p.sensitivity_e_per_nit_s * exposure.exposure_s,
+            index_per_e: exposure.gain / p.full_well_electrons * (SRGB_LUT_SIZE - 1) as f64,
+            read2: p.read_noise_electrons * p.read_noise_electrons,
+            full_well: p.full_well_electrons,
+            noise: p.noise_enabled,
+        }
+    }
+
+    #[inline(always)]
+    fn pixel(&self, radiance: [f32; 3], seed: u64, pixel: u64, lut: &[u8], out: &mut [u8; 3]) {
+        let last = (SRGB_LUT_SIZE - 1) as f64;
+        for c in 0..3 {
+            let mut e = (f64::from(radiance[c]) * self.e_scale).max(0.0);
+            if self.noise {
+                let n = standard_normal(seed, pixel * 3 + c as u64);
+                e += (e + self.read2).sqrt() * n;
+            }
+            let e = e.clamp(0.0, self.full_well);
+            // Normalised value `e g / FW` clipped to [0, 1], as a rounded table index (in
+            // 0..=65535, so the i32 conversion is exact and cheap).
+            let i = ((e * self.index_per_e).min(last) + 0.5) as i32;
+            out[c] = lut.get(i as usize).copied().unwrap_or(255);
         }
     }
 }
 
 /// Approximately standard normal deviate keyed by (seed, counter): Irwin-Hall of 4 uniforms
-/// from one 64-bit hash, `(sum - 2) sqrt(3)`, unit variance.
+/// from one 64-bit hash, `(sum - 2) sqrt(3)`, unit variance. The hash is SplitMix64's output
+/// at position `counter` of the stream starting at `seed` (one finaliser per draw; the
+/// generator is built for consecutive counters).
 #[inline]
 #[must_use]
 pub fn standard_normal(seed: u64, counter: u64) -> f64 {
-    let h = splitmix64(seed ^ splitmix64(counter));
+    let h = splitmix64(seed.wrapping_add(counter.wrapping_mul(SPLITMIX_GAMMA)));
     let s = (h & 0xffff) + ((h >> 16) & 0xffff) + ((h >> 32) & 0xffff) + (h >> 48);
     // Each 16-bit uniform is (x + 0.5) / 65536.
     let u_sum = (s as f64 + 2.0) / 65_536.0;

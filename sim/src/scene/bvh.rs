@@ -16,7 +16,9 @@
 //! test `|n.c| +- |n|.h`, conservative); the renderer culls once per pixel tile and per
 //! tile's shadow beam, then tests each ray against the few candidates only.
 
-use super::primitives::{Aabb, Primitive, Ray};
+use nalgebra::Point3;
+
+use super::primitives::{Aabb, BoxFromOrigin, Primitive, Ray};
 
 /// Number of SAH bins per axis.
 pub const SAH_BINS: usize = 12;
@@ -105,6 +107,9 @@ pub struct Candidates {
     /// each (the distance between the box of ray origins and the candidate's box),
     /// ascending.
     boxes: Vec<(f64, Node)>,
+    /// When the bundle's rays share one origin: that origin and, per candidate, its
+    /// origin-only box-test terms (`None` for non-box shapes).
+    shared_origin: Option<(Point3<f64>, Vec<Option<BoxFromOrigin>>)>,
     /// More than the limit passed to [`Bvh::cull`] matched: traverse the hierarchy instead.
     overflow: bool,
     /// Movable objects whose world box overlaps the volume (filled by `Scene::cull`).
@@ -279,6 +284,7 @@ impl Bvh {
         out: &mut Candidates,
     ) {
         out.boxes.clear();
+        out.shared_origin = None;
         out.overflow = false;
         if self.nodes.is_empty() {
             return;
@@ -329,6 +335,22 @@ impl Bvh {
         }
         out.boxes
             .sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.index.cmp(&b.1.index)));
+        // One shared origin (a camera's primary rays): evaluate each box's origin terms once.
+        let mut shared = out.shared_origin.take();
+        if origins_lo == origins_hi {
+            let origin = Point3::from(origins_lo);
+            let mut pre = shared.map(|(_, v)| v).unwrap_or_default();
+            pre.clear();
+            pre.extend(out.boxes.iter().map(|(_, n)| {
+                self.prims
+                    .get(n.index as usize)
+                    .and_then(|p| p.shape.box_from_origin(&origin))
+            }));
+            shared = Some((origin, pre));
+        } else {
+            shared = None;
+        }
+        out.shared_origin = shared;
     }
 
     /// Closest hit over culled candidates (the whole hierarchy if they overflowed).
@@ -345,9 +367,15 @@ impl Bvh {
             return self.intersect(ray, t_min, t_max);
         }
         let (o, inv) = f32_ray(ray);
+        // Rays from the shared origin use the candidates' precomputed box terms (same
+        // arithmetic as `Shape::intersect`).
+        let pre = match &cands.shared_origin {
+            Some((origin, pre)) if *origin == ray.origin => Some(pre.as_slice()),
+            _ => None,
+        };
         let mut best = None;
         let mut t_best = t_max;
-        for &(t_lo, ref c) in &cands.boxes {
+        for (i, &(t_lo, ref c)) in cands.boxes.iter().enumerate() {
             // Sorted by the lower bound: nothing farther can beat the best hit.
             if t_lo >= t_best {
                 break;
@@ -355,10 +383,14 @@ impl Bvh {
             if c.hit(&o, &inv, t_best as f32).is_none() {
                 continue;
             }
-            let Some(p) = self.prims.get(c.index as usize) else {
-                continue;
+            let t = match pre.and_then(|p| p.get(i)) {
+                Some(Some(b)) => b.intersect(&ray.dir, t_min, t_best),
+                _ => self
+                    .prims
+                    .get(c.index as usize)
+                    .and_then(|p| p.shape.intersect(ray, t_min, t_best)),
             };
-            if let Some(t) = p.shape.intersect(ray, t_min, t_best) {
+            if let Some(t) = t {
                 t_best = t;
                 best = Some(BvhHit {
                     t_m: t,

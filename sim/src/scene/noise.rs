@@ -196,7 +196,8 @@ pub fn fbm2(x: f32, y: f32, scale_m: f32, octaves: u32, footprint_m: f32, seed: 
         norm: 0.0,
     };
     if octaves as usize <= FBM_LANES_SMALL {
-        fbm_lanes::<FBM_LANES_SMALL>(x, y, 0, octaves, seed, &mut acc);
+        let plan = FbmPlan::new(x, y, scale_m, octaves, footprint_m, seed);
+        return plan.finish(value2_lanes(plan.x, plan.y, plan.seed));
     } else {
         let mut o = 0;
         while o < octaves && fbm_lanes::<FBM_LANES_WIDE>(x, y, o, octaves - o, seed, &mut acc) {
@@ -265,6 +266,85 @@ fn fbm_lanes<const N: usize>(
         acc.sum += weight[i] * (v[i] - 0.5);
     }
     active[N - 1] && count as usize > N
+}
+
+/// The octave lookups of an [`fbm2`] of at most four octaves, laid out as the lanes of one
+/// [`value2_lanes`] call, so a texture can batch them with its other value-noise lookups
+/// (lanes `octaves..4` are free for those): `plan.finish(value2_lanes(..))` equals
+/// [`fbm2`] bit for bit.
+#[derive(Clone, Copy, Debug)]
+pub struct FbmPlan {
+    /// Lookup x per lane (octave `o`: `x 2.13^o / scale`).
+    pub x: [f32; FBM_LANES_SMALL],
+    /// Lookup y per lane.
+    pub y: [f32; FBM_LANES_SMALL],
+    /// Lookup seed per lane.
+    pub seed: [u32; FBM_LANES_SMALL],
+    weight: [f32; FBM_LANES_SMALL],
+    active: [bool; FBM_LANES_SMALL],
+    norm: f32,
+}
+
+impl FbmPlan {
+    /// Plans `fbm2(x, y, scale_m, octaves.min(4), footprint_m, seed)`.
+    #[inline(always)]
+    #[must_use]
+    pub fn new(x: f32, y: f32, scale_m: f32, octaves: u32, footprint_m: f32, seed: u32) -> Self {
+        let mut acc = FbmAcc {
+            freq: 1.0 / scale_m,
+            wavelength_px: scale_m / footprint_m.max(1e-9),
+            amp: 1.0,
+            sum: 0.0,
+            norm: 0.0,
+        };
+        let mut plan = Self {
+            x: [0.0; FBM_LANES_SMALL],
+            y: [0.0; FBM_LANES_SMALL],
+            seed: [0; FBM_LANES_SMALL],
+            weight: [0.0; FBM_LANES_SMALL],
+            active: [false; FBM_LANES_SMALL],
+            norm: 0.0,
+        };
+        // Per-octave constants by the same running products as the sequential loop.
+        for i in 0..FBM_LANES_SMALL {
+            let w = ((acc.wavelength_px - 2.0) * 0.5).clamp(0.0, 1.0);
+            // In-band octaves are a prefix (wavelengths fall with the octave).
+            plan.active[i] = (i as u32) < octaves && w > 0.0;
+            plan.weight[i] = if plan.active[i] { acc.amp * w } else { 0.0 };
+            plan.x[i] = x * acc.freq;
+            plan.y[i] = y * acc.freq;
+            plan.seed[i] = seed.wrapping_add((i as u32).wrapping_mul(0x9e37));
+            acc.norm += if plan.active[i] { acc.amp } else { 0.0 };
+            acc.freq *= LACUNARITY;
+            acc.wavelength_px *= 1.0 / LACUNARITY;
+            acc.amp *= GAIN;
+        }
+        plan.norm = acc.norm;
+        plan
+    }
+
+    /// The fbm from the lane values `v` (only the planned octaves' lanes are read).
+    #[inline(always)]
+    #[must_use]
+    pub fn finish(&self, v: [f32; FBM_LANES_SMALL]) -> f32 {
+        let mut sum = 0.0;
+        for ((&active, &weight), &v) in self.active.iter().zip(&self.weight).zip(&v) {
+            // Inactive lanes add +0.0 (whatever the lane held), which changes no sum.
+            sum += if active { weight * (v - 0.5) } else { 0.0 };
+        }
+        if self.norm > 0.0 {
+            sum / self.norm
+        } else {
+            0.0
+        }
+    }
+}
+
+/// [`value2`] of four points at once (one SSE vector per step), bit for bit.
+#[inline(always)]
+#[must_use]
+pub fn value2_lanes(x: [f32; 4], y: [f32; 4], seed: [u32; 4]) -> [f32; 4] {
+    value_lanes(x, y, seed)
 }
 
 /// [`value2`] of `N` points at once, lane by lane the same operations (and bits).

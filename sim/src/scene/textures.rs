@@ -17,7 +17,9 @@
 //! weathered paint are (nearly) textureless.
 
 pub use super::noise::NoiseCache;
-use super::noise::{aa_step, band_weight, hash_u32, hash2, unit_f32, value2};
+use super::noise::{
+    FbmPlan, aa_step, band_weight, hash_u32, hash2, unit_f32, value2, value2_lanes,
+};
 
 /// Shading class of a material.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -297,6 +299,8 @@ fn mix(a: [f32; 3], b: [f32; 3], t: f32) -> [f32; 3] {
 }
 
 const RUST_RGB: [f32; 3] = [0.23, 0.09, 0.035];
+/// Wavelength of the noise perturbing paint-chip outlines (m).
+const CHIP_OUTLINE_M: f32 = 0.0012;
 
 // Texture parameters are plain scalars next to the memo; a struct would only rename them.
 #[allow(clippy::too_many_arguments)]
@@ -324,7 +328,9 @@ fn painted(
         c = mix(
             c,
             scale(RUST_RGB, 0.7),
-            chips(nc, u, v, fp, seed ^ 0x77, rust),
+            chips(nc, u, v, fp, seed ^ 0x77, rust, || {
+                value2(u / CHIP_OUTLINE_M, v / CHIP_OUTLINE_M, seed ^ 0x77 ^ 0x9999)
+            }),
         );
     }
     c
@@ -333,7 +339,17 @@ fn painted(
 /// Coverage (0..1) of paint chips: 2-6 mm cellular flakes clustered where a low-frequency
 /// mask is high, `amount` in 0..1 scaling their density (corner-rich detail at the wrist
 /// working distance).
-fn chips(nc: &mut NoiseCache, u: f32, v: f32, fp: f32, seed: u32, amount: f32) -> f32 {
+/// `outline_noise` supplies `value2(u / 1.2 mm, v / 1.2 mm, seed ^ 0x9999)` (called only
+/// inside a chip; a caller may hand over a value it computed in a batch).
+fn chips(
+    nc: &mut NoiseCache,
+    u: f32,
+    v: f32,
+    fp: f32,
+    seed: u32,
+    amount: f32,
+    outline_noise: impl FnOnce() -> f32,
+) -> f32 {
     let cell = 0.005;
     let w = band_weight(cell, fp);
     if w <= 0.0 || amount <= 0.0 {
@@ -349,8 +365,7 @@ fn chips(nc: &mut NoiseCache, u: f32, v: f32, fp: f32, seed: u32, amount: f32) -
     }
     // Irregular outline: the cell distance perturbed by fine value noise.
     let radius = 0.2 + 0.3 * unit_f32(hash_u32(c.id));
-    let wobble =
-        0.5 * (value2(u / 0.0012, v / 0.0012, seed ^ 0x9999) - 0.5) * band_weight(0.0012, fp);
+    let wobble = 0.5 * (outline_noise() - 0.5) * band_weight(0.0012, fp);
     w * 0.85 * (1.0 - aa_step(radius, c.f1 + wobble, fp / cell))
 }
 
@@ -416,11 +431,22 @@ fn bolted(
     let d2 = ((pu - c2.0) * (pu - c2.0) + (pv - c2.1) * (pv - c2.1)).sqrt();
     let (bc, d) = if d1 < d2 { (c1, d1) } else { (c2, d2) };
     let (du, dv) = (pu - bc.0, pv - bc.1);
+    // Every per-pixel value-noise lookup of the panel in one 4-lane batch: the two octaves
+    // of the 12 mm grime, the streak modulation and the chip outline (each lane equals its
+    // own `value2`, so this is only faster).
+    let grime = FbmPlan::new(u, v, 0.012, 2, fp, seed ^ 2);
+    let chip_seed = seed ^ 0x3c3c;
+    let mut lanes = grime;
+    lanes.x[2] = u / 0.004;
+    lanes.y[2] = v / 0.02;
+    lanes.seed[2] = seed;
+    lanes.x[3] = u / CHIP_OUTLINE_M;
+    lanes.y[3] = v / CHIP_OUTLINE_M;
+    lanes.seed[3] = chip_seed ^ 0x9999;
+    let noise = value2_lanes(lanes.x, lanes.y, lanes.seed);
     let mut k = tone
         * seam
-        * (1.0
-            + 0.12 * nc.fbm2(u, v, 0.3, 3, fp, seed ^ 1)
-            + 0.16 * nc.fbm2(u, v, 0.012, 2, fp, seed ^ 2));
+        * (1.0 + 0.12 * nc.fbm2(u, v, 0.3, 3, fp, seed ^ 1) + 0.16 * grime.finish(noise));
     let wb = band_weight(2.0 * r, fp);
     // Rust streaks run down (-v) from the top-row bolts and from the side-column bolts above
     // the point; each bolt bleeds with its own strength, modulated by one streaky noise
@@ -446,7 +472,7 @@ fn bolted(
         );
         let s = s1.max(s2);
         let s = if s > 0.0 {
-            s * (0.6 + 0.8 * value2(u / 0.004, v / 0.02, seed))
+            s * (0.6 + 0.8 * noise[2])
         } else {
             s
         };
@@ -454,7 +480,7 @@ fn bolted(
     } else {
         0.0
     };
-    let chip = chips(nc, u, v, fp, seed ^ 0x3c3c, 0.5);
+    let chip = chips(nc, u, v, fp, chip_seed, 0.5, || noise[3]);
     let mut c = mix(scale(b, k), RUST_RGB, rust_t);
     c = mix(c, [0.07, 0.07, 0.065], chip);
     if d < 1.4 * r {
