@@ -299,6 +299,8 @@ fn mix(a: [f32; 3], b: [f32; 3], t: f32) -> [f32; 3] {
 }
 
 const RUST_RGB: [f32; 3] = [0.23, 0.09, 0.035];
+/// Streak profiles `exp(x)` with `x` below minus this are no streak.
+const STREAK_MIN_EXPONENT: f32 = 9.0;
 /// Wavelength of the noise perturbing paint-chip outlines (m).
 const CHIP_OUTLINE_M: f32 = 0.0012;
 
@@ -449,27 +451,30 @@ fn bolted(
         * (1.0 + 0.12 * nc.fbm2(u, v, 0.3, 3, fp, seed ^ 1) + 0.16 * grime.finish(noise));
     let wb = band_weight(2.0 * r, fp);
     // Rust streaks run down (-v) from the top-row bolts and from the side-column bolts above
-    // the point; each bolt bleeds with its own strength, modulated by one streaky noise
+    // the point; each bolt bleeds with its own strength `s_b` and profile
+    // `exp(-|du| / 0.6 r + dv / 14 r)`, modulated by one streaky noise
     // `n = 0.6 + 0.8 value2(u / 4 mm, v / 20 mm)`. Since `n > 0`, the stronger streak is
-    // picked before multiplying by `n` (`max(a n, b n) = max(a, b) n`, exactly) and `n` is
-    // evaluated only where a streak reaches; none is drawn where bolts are below the band
-    // limit (`wb = 0`).
-    let streak = |du: f32, dv: f32, id: i32| {
+    // picked before multiplying by `n` (`max(a n, b n) = max(a, b) n`) and `n` is evaluated
+    // only where a streak reaches; a profile below `e^-9` (1e-4: under a thousandth of a grey
+    // level once mixed) is no streak, and none is drawn where bolts are below the band limit
+    // (`wb = 0`).
+    let streak = |du: f32, dv: f32, id: &dyn Fn() -> i32| {
         if dv >= 0.0 || du.abs() > 4.0 * r || dv < -60.0 * r {
             return 0.0;
         }
-        let strength = unit_f32(hash2(id, pi.wrapping_mul(131) ^ pj, seed ^ 0x5151));
-        strength * (-(du.abs() / (0.6 * r))).exp() * (dv / (14.0 * r)).exp()
+        let exponent = dv / (14.0 * r) - du.abs() / (0.6 * r);
+        if exponent < -STREAK_MIN_EXPONENT {
+            return 0.0;
+        }
+        unit_f32(hash2(id(), pi.wrapping_mul(131) ^ pj, seed ^ 0x5151)) * exponent.exp()
     };
     let rust_t = if wb > 0.0 {
         let top_u = snap(pu, wp);
         let above = (margin + ((pv - margin) / pitch).ceil() * pitch).min(hp - margin);
-        let s1 = streak(pu - top_u, pv - (hp - margin), (top_u / pitch) as i32);
-        let s2 = streak(
-            pu - col_u,
-            pv - above,
-            1000 + (above / pitch) as i32 + (col_u / pitch) as i32 * 7,
-        );
+        let s1 = streak(pu - top_u, pv - (hp - margin), &|| (top_u / pitch) as i32);
+        let s2 = streak(pu - col_u, pv - above, &|| {
+            1000 + (above / pitch) as i32 + (col_u / pitch) as i32 * 7
+        });
         let s = s1.max(s2);
         let s = if s > 0.0 {
             s * (0.6 + 0.8 * noise[2])
