@@ -474,8 +474,10 @@ fn render_tile(
     }
     let frustum = frustum(cam, x_range, y_range);
     scene.cull(&frustum, o, o, CULL_LIMIT, &mut sc.primary);
+    // The previous ray's winner is tested first (neighbours mostly hit the same primitive).
+    let mut hint = None;
     for r in &mut sc.rays {
-        r.hit = scene.intersect_culled(&r.ray, 0.0, f64::INFINITY, &sc.primary);
+        r.hit = scene.intersect_culled_hinted(&r.ray, 0.0, f64::INFINITY, &sc.primary, &mut hint);
     }
     if setup.casts_shadows() {
         let (lo, hi) = shadow_origins(&sc.rays);

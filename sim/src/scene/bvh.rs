@@ -363,6 +363,24 @@ impl Bvh {
         t_min: f64,
         t_max: f64,
     ) -> Option<BvhHit> {
+        self.intersect_candidates_hinted(cands, ray, t_min, t_max, &mut None)
+    }
+
+    /// [`Self::intersect_candidates`] that tests candidate `*hint` (an index into `cands`,
+    /// e.g. the previous ray's winner) first and stores this ray's winner there: a tight
+    /// first bound lets the box tests reject the rest. The result is the same: the nearest
+    /// hit and, on exact ties, the lowest candidate index (what the in-order scan keeps),
+    /// since candidates ordered before the current winner are accepted at equal distance.
+    #[inline]
+    #[must_use]
+    pub fn intersect_candidates_hinted(
+        &self,
+        cands: &Candidates,
+        ray: &Ray,
+        t_min: f64,
+        t_max: f64,
+        hint: &mut Option<usize>,
+    ) -> Option<BvhHit> {
         if cands.overflow {
             return self.intersect(ray, t_min, t_max);
         }
@@ -370,35 +388,59 @@ impl Bvh {
         // Rays from the shared origin use the candidates' precomputed box terms (same
         // arithmetic as `Shape::intersect`).
         let pre = match &cands.shared_origin {
-            Some((origin, pre)) if *origin == ray.origin => Some(pre.as_slice()),
-            _ => None,
+            Some((origin, pre)) if *origin == ray.origin => pre.as_slice(),
+            _ => &[],
         };
-        let mut best = None;
+        let test = CandidateTest {
+            bvh: self,
+            ray,
+            o,
+            inv,
+            pre,
+            t_min,
+        };
+        let mut best_i = usize::MAX;
         let mut t_best = t_max;
+        let first = hint.unwrap_or(usize::MAX);
+        if let Some(&(t_lo, ref c)) = cands.boxes.get(first)
+            && t_lo < t_best
+            && let Some(t) = test.exact(first, c, t_best)
+        {
+            best_i = first;
+            t_best = t;
+        }
         for (i, &(t_lo, ref c)) in cands.boxes.iter().enumerate() {
-            // Sorted by the lower bound: nothing farther can beat the best hit.
-            if t_lo >= t_best {
-                break;
-            }
-            if c.hit(&o, &inv, t_best as f32).is_none() {
-                continue;
-            }
-            let t = match pre.and_then(|p| p.get(i)) {
-                Some(Some(b)) => b.intersect(&ray.dir, t_min, t_best),
-                _ => self
-                    .prims
-                    .get(c.index as usize)
-                    .and_then(|p| p.shape.intersect(ray, t_min, t_best)),
-            };
-            if let Some(t) = t {
-                t_best = t;
-                best = Some(BvhHit {
-                    t_m: t,
-                    prim: c.index,
-                });
+            if i < best_i {
+                // Ordered before the winner: an exact tie also wins.
+                if t_lo > t_best {
+                    break;
+                }
+                let t_hi = if best_i == usize::MAX {
+                    t_best
+                } else {
+                    t_best.next_up()
+                };
+                if let Some(t) = test.exact(i, c, t_hi) {
+                    best_i = i;
+                    t_best = t;
+                }
+            } else if i > best_i {
+                // Sorted by the lower bound: nothing farther can beat the best hit.
+                if t_lo >= t_best {
+                    break;
+                }
+                if let Some(t) = test.exact(i, c, t_best) {
+                    best_i = i;
+                    t_best = t;
+                }
             }
         }
-        best
+        let (_, c) = cands.boxes.get(best_i)?;
+        *hint = Some(best_i);
+        Some(BvhHit {
+            t_m: t_best,
+            prim: c.index,
+        })
     }
 
     /// Some candidate hit with `t` in `(t_min, t_max)` (any-hit over culled candidates; the
@@ -491,6 +533,35 @@ impl Bvh {
                     break;
                 }
             }
+        }
+    }
+}
+
+/// One ray against single candidates of a [`Candidates`] list.
+struct CandidateTest<'a> {
+    bvh: &'a Bvh,
+    ray: &'a Ray,
+    o: [f32; 3],
+    inv: [f32; 3],
+    /// Precomputed box terms for this ray's origin (empty if none).
+    pre: &'a [Option<BoxFromOrigin>],
+    t_min: f64,
+}
+
+impl CandidateTest<'_> {
+    /// Distance to candidate `i` (box `c`) in `(t_min, t_hi)`: the padded f32 box first,
+    /// then the exact f64 test.
+    #[inline(always)]
+    fn exact(&self, i: usize, c: &Node, t_hi: f64) -> Option<f64> {
+        c.hit(&self.o, &self.inv, t_hi as f32)?;
+        match self.pre.get(i) {
+            Some(Some(b)) => b.intersect(&self.ray.dir, self.t_min, t_hi),
+            _ => self
+                .bvh
+                .prims
+                .get(c.index as usize)?
+                .shape
+                .intersect(self.ray, self.t_min, t_hi),
         }
     }
 }

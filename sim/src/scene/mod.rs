@@ -524,6 +524,21 @@ impl Scene {
         t_max: f64,
         statics: &Candidates,
     ) -> Option<Hit> {
+        self.intersect_culled_hinted(ray, t_min, t_max, statics, &mut None)
+    }
+
+    /// [`Self::intersect_culled`] testing the static candidate `*hint` first (see
+    /// [`Bvh::intersect_candidates_hinted`]; same result).
+    #[inline]
+    #[must_use]
+    pub fn intersect_culled_hinted(
+        &self,
+        ray: &Ray,
+        t_min: f64,
+        t_max: f64,
+        statics: &Candidates,
+        hint: &mut Option<usize>,
+    ) -> Option<Hit> {
         let mut best = None;
         let mut t_best = t_max;
         if let Some(g) = &self.ground
@@ -541,7 +556,7 @@ impl Scene {
         }
         if let Some(h) = self
             .statics
-            .intersect_candidates(statics, ray, t_min, t_best)
+            .intersect_candidates_hinted(statics, ray, t_min, t_best, hint)
         {
             t_best = h.t_m;
             best = Some(Hit {
