@@ -227,17 +227,27 @@ struct Cam {
 }
 
 impl Cam {
-    #[inline]
+    /// The world ray through undistorted image coordinates `xy` and the `d_z` of its unit
+    /// camera-frame direction `(x, y, 1) / |(x, y, 1)|`, which is rotated by `r`. Plain
+    /// arithmetic in nalgebra's order (norm `((x x + y y) + 1)^(1/2)`, matrix rows
+    /// `(m0 d0 + m1 d1) + m2 d2`), so a per-pixel loop keeps the matrix in registers.
+    #[inline(always)]
     fn ray(&self, xy: [f64; 2]) -> (Ray, f64) {
-        let d = Vector3::new(xy[0], xy[1], 1.0);
-        let inv = 1.0 / d.norm();
-        let dc = d * inv;
+        let (x, y) = (xy[0], xy[1]);
+        let inv = 1.0 / ((x * x + y * y) + 1.0).sqrt();
+        let d = [x * inv, y * inv, inv];
+        let r = &self.r;
+        let row = |m0: f64, m1: f64, m2: f64| (m0 * d[0] + m1 * d[1]) + m2 * d[2];
         (
             Ray {
                 origin: self.origin,
-                dir: self.r * dc,
+                dir: Vector3::new(
+                    row(r.m11, r.m12, r.m13),
+                    row(r.m21, r.m22, r.m23),
+                    row(r.m31, r.m32, r.m33),
+                ),
             },
-            dc.z,
+            inv,
         )
     }
 }
