@@ -13,11 +13,18 @@
 //!    (separating axes: two perpendiculars of the sun direction, the sun direction and the
 //!    world axes). Both volumes contain every ray, so hits are exactly those of a full
 //!    traversal (a tile with more than [`CULL_LIMIT`] candidates traverses the BVH per ray).
+//!    Candidates are sorted by a lower bound of their distance (box of ray origins to their
+//!    box), so a ray stops at the first candidate beyond its best hit; each primary ray
+//!    tests the previous ray's winner first (a tight bound for the box tests; exact ties
+//!    keep the lowest candidate index, as the in-order scan does), and boxes' origin-only
+//!    slab terms are evaluated once per tile (primary rays share the camera centre).
 //! 2. **Antialiasing**: pixels whose primitive differs from a 4-neighbour are re-sampled with
 //!    a rotated-grid pattern (4 sub-samples at (+-1/8, +-3/8) px, Akeley 1993) and averaged
 //!    with the centre; textures are band-limited by the ray footprint (analytic AA). Depth
 //!    stays the centre sample's, and a pixel whose sub-samples straddle a depth step is
-//!    dropped (flying pixel).
+//!    dropped (flying pixel). Sub-sample rays are culled per tile too, with the frustum of
+//!    the tile's pixel centres grown by one pixel (a sub-sample's direction interpolates
+//!    between neighbouring centres, so it lies inside).
 //! 3. **Exposure**: a luminance histogram drives auto-exposure, then per-pixel noise,
 //!    gain and sRGB quantisation ([`rgb_sensor`]).
 //!
@@ -25,10 +32,11 @@
 //! Every pixel is a pure function of (scene, pose, camera, light, parameters, seed, pixel
 //! index): noise comes from counter-based hashes keyed by the pixel index, and the only
 //! reduction (the histogram) sums integers. Tiles and their culled candidate lists are a
-//! fixed function of the image geometry; the antialiasing pass's tracing hints (the previous
-//! sample's primitive, tested first to tighten the BVH bound) are reset at the start of each
-//! band and never change which hit is closest. The output bytes are therefore identical for
-//! any rayon thread count.
+//! fixed function of the image geometry; tracing hints (the previous sample's primitive,
+//! tested first to tighten the bound) and the texture-noise memo
+//! ([`crate::scene::textures::NoiseCache`], keyed by all its inputs) live per band and never
+//! change a result. The output bytes are therefore identical for any rayon thread count
+//! (tested for the renderer with 1, 2 and 3 threads).
 //!
 //! # Conventions
 //! Camera frame = OpenCV optical axes (x right, y down, z forward); `world_from_camera` maps
@@ -52,7 +60,7 @@ use crate::scene::textures::NoiseCache;
 use crate::scene::{Candidates, Hit, Ray, Scene, Slab};
 use depth_sensor::DepthSample;
 use rgb_sensor::{HISTOGRAM_BINS, histogram_bin};
-use shading::{LightSetup, SHADOW_BIAS_M, Shaded, TraceHints, shade_hit, shade_sky, trace};
+use shading::{LightSetup, SHADOW_BIAS_M, Shaded, TraceHints, shade_hit, shade_sky, trace_culled};
 
 /// Errors of rendering.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -597,15 +605,48 @@ pub fn render_rgbd_with_rays(
             .enumerate()
             .map(|(ci, (rad, dep))| {
                 let row0 = ci * TILE;
+                let rows = rad.len() / w.max(1);
                 let mut hints = TraceHints::default();
+                let mut cands = Candidates::default();
+                let mut edges: Vec<(usize, usize)> = Vec::with_capacity(TILE * TILE);
                 let mut count = 0;
-                let rows = rad.chunks_mut(w.max(1)).zip(dep.chunks_mut(w.max(1)));
-                for (dr, (rad_row, dep_row)) in rows.enumerate() {
-                    let row = row0 + dr;
-                    for (col, (r, d)) in rad_row.iter_mut().zip(dep_row.iter_mut()).enumerate() {
-                        if !primitive_edge(keys, w, h, col, row) {
-                            continue;
+                for col0 in (0..w).step_by(TILE) {
+                    let col1 = (col0 + TILE).min(w);
+                    edges.clear();
+                    for row in row0..row0 + rows {
+                        for col in col0..col1 {
+                            if primitive_edge(keys, w, h, col, row) {
+                                edges.push((col, row));
+                            }
                         }
+                    }
+                    if edges.is_empty() {
+                        continue;
+                    }
+                    // Sub-samples interpolate between neighbouring pixel centres, so the
+                    // tile's pixels grown by one on each side bound all their rays.
+                    let (mut xr, mut yr) = (
+                        [f64::INFINITY, f64::NEG_INFINITY],
+                        [f64::INFINITY, f64::NEG_INFINITY],
+                    );
+                    for row in row0.saturating_sub(1)..(row0 + rows + 1).min(h) {
+                        for xy in table
+                            .get(row * w + col0.saturating_sub(1)..row * w + (col1 + 1).min(w))
+                            .unwrap_or(&[])
+                        {
+                            xr = grow(xr, xy[0]);
+                            yr = grow(yr, xy[1]);
+                        }
+                    }
+                    let o = [cam.origin.x, cam.origin.y, cam.origin.z];
+                    scene.cull(&frustum(&cam, xr, yr), o, o, CULL_LIMIT, &mut cands);
+                    for &(col, row) in &edges {
+                        let (Some(r), Some(d)) = (
+                            rad.get_mut((row - row0) * w + col),
+                            dep.get_mut((row - row0) * w + col),
+                        ) else {
+                            continue;
+                        };
                         count += 1;
                         let p = row * w + col;
                         let guess = table.get(p).copied().unwrap_or([0.0; 2]);
@@ -615,8 +656,14 @@ pub fn render_rgbd_with_rays(
                         for off in RGSS {
                             let xy = interpolate_rays(table, w, h, col, row, off).unwrap_or(guess);
                             let (ray, dz) = cam.ray(xy);
-                            let s: Shaded =
-                                trace(scene, &setup, &ray, cam.footprint_per_m, &mut hints);
+                            let s: Shaded = trace_culled(
+                                scene,
+                                &setup,
+                                &ray,
+                                cam.footprint_per_m,
+                                &mut hints,
+                                &cands,
+                            );
                             for (a, x) in acc.iter_mut().zip(s.radiance) {
                                 *a += x;
                             }
@@ -731,6 +778,7 @@ pub fn raycast_depth(
 
 #[cfg(test)]
 mod tests {
+    use super::shading::trace;
     use super::*;
     use crate::scene::SubstationBuilder;
 

@@ -15,7 +15,7 @@ use nalgebra::{Point3, Vector3};
 use super::depth_sensor::DepthSample;
 use super::light::{LightConditions, luminance};
 use crate::scene::textures::NoiseCache;
-use crate::scene::{Hit, Ray, Scene, Shading};
+use crate::scene::{Candidates, Hit, Ray, Scene, Shading};
 
 /// Albedo of the surroundings bouncing light up onto downward-facing surfaces.
 pub const GROUND_BOUNCE_ALBEDO: f64 = 0.2;
@@ -81,6 +81,8 @@ const INV_PI: f64 = std::f64::consts::FRAC_1_PI;
 #[derive(Clone, Debug, Default)]
 pub struct TraceHints {
     primary: Option<Hit>,
+    /// Winning entry of the candidate list of [`trace_culled`].
+    candidate: Option<usize>,
     shadow: Option<Hit>,
     noise: NoiseCache,
 }
@@ -99,6 +101,29 @@ pub fn trace(
     if found.is_some() {
         hints.primary = found;
     }
+    let Some(hit) = found else {
+        return shade_sky(setup, ray);
+    };
+    let TraceHints { shadow, noise, .. } = hints;
+    shade_hit(scene, setup, ray, &hit, footprint_per_m, noise, |r| {
+        scene.occluded_hinted(r, 0.0, f64::INFINITY, shadow)
+    })
+}
+
+/// [`trace`] for a ray inside the volume `statics` was culled with (see
+/// [`Scene::intersect_culled`]): the same result, the primary ray tested against the
+/// candidates only.
+#[must_use]
+pub fn trace_culled(
+    scene: &Scene,
+    setup: &LightSetup,
+    ray: &Ray,
+    footprint_per_m: f64,
+    hints: &mut TraceHints,
+    statics: &Candidates,
+) -> Shaded {
+    let found =
+        scene.intersect_culled_hinted(ray, 0.0, f64::INFINITY, statics, &mut hints.candidate);
     let Some(hit) = found else {
         return shade_sky(setup, ray);
     };
