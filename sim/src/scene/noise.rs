@@ -18,6 +18,9 @@
 //! * Cellular noise: distance to the nearest and second-nearest jittered feature point of a
 //!   unit grid (Worley, SIGGRAPH 1996), with the id of the nearest cell.
 //!
+//! * [`NoiseCache`]: per-thread memo for textures (interpolated low-frequency fbm, cellular
+//!   feature points per cell); its results never depend on what it held before.
+//!
 //! Speed without `unsafe`: fbm octaves and the 9 cells of a cellular lookup are independent,
 //! so they are computed in lanes (`[f32; N]` / `[u32; N]` arrays whose element-wise loops
 //! the compiler turns into SSE4.1 vectors: `roundps`, `pmulld`, `cvtdq2ps`), and only the

@@ -10,6 +10,12 @@
 //! ramps of width `w` ([`aa_step`]), so a single sample per pixel does not alias (the
 //! renderer supersamples geometric edges separately).
 //!
+//! Cost: the renderer passes a per-thread [`NoiseCache`] ([`Material::albedo_cached`]):
+//! low-frequency fbm (finest octave >= 64 pixel footprints) is interpolated from a grid of 8
+//! samples per finest wavelength, a pure function of `uv` like the rest, and cellular
+//! feature points are hashed once per cell; the bolted panel evaluates its per-pixel value
+//! noise in one 4-lane batch.
+//!
 //! Corner content at the wrist working distance (0.3-0.6 m, one pixel ~ 0.17-0.34 mm with
 //! fx = 1745 px): gravel stones (5-25 mm), bolt heads, text-like glyph blocks (2-4 mm),
 //! rust-stain outlines and galvanising spangle give ORB corners; louvres, cable-tray slots,
