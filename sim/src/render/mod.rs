@@ -13,11 +13,18 @@
 //!    (separating axes: two perpendiculars of the sun direction, the sun direction and the
 //!    world axes). Both volumes contain every ray, so hits are exactly those of a full
 //!    traversal (a tile with more than [`CULL_LIMIT`] candidates traverses the BVH per ray).
+//!    Candidates are sorted by a lower bound of their distance (box of ray origins to their
+//!    box), so a ray stops at the first candidate beyond its best hit; each primary ray
+//!    tests the previous ray's winner first (a tight bound for the box tests; exact ties
+//!    keep the lowest candidate index, as the in-order scan does), and boxes' origin-only
+//!    slab terms are evaluated once per tile (primary rays share the camera centre).
 //! 2. **Antialiasing**: pixels whose primitive differs from a 4-neighbour are re-sampled with
 //!    a rotated-grid pattern (4 sub-samples at (+-1/8, +-3/8) px, Akeley 1993) and averaged
 //!    with the centre; textures are band-limited by the ray footprint (analytic AA). Depth
 //!    stays the centre sample's, and a pixel whose sub-samples straddle a depth step is
-//!    dropped (flying pixel).
+//!    dropped (flying pixel). Sub-sample rays are culled per tile too, with the frustum of
+//!    the tile's pixel centres grown by one pixel (a sub-sample's direction interpolates
+//!    between neighbouring centres, so it lies inside).
 //! 3. **Exposure**: a luminance histogram drives auto-exposure, then per-pixel noise,
 //!    gain and sRGB quantisation ([`rgb_sensor`]).
 //!
@@ -25,10 +32,11 @@
 //! Every pixel is a pure function of (scene, pose, camera, light, parameters, seed, pixel
 //! index): noise comes from counter-based hashes keyed by the pixel index, and the only
 //! reduction (the histogram) sums integers. Tiles and their culled candidate lists are a
-//! fixed function of the image geometry; the antialiasing pass's tracing hints (the previous
-//! sample's primitive, tested first to tighten the BVH bound) are reset at the start of each
-//! band and never change which hit is closest. The output bytes are therefore identical for
-//! any rayon thread count.
+//! fixed function of the image geometry; tracing hints (the previous sample's primitive,
+//! tested first to tighten the bound) and the texture-noise memo
+//! ([`crate::scene::textures::NoiseCache`], keyed by all its inputs) live per band and never
+//! change a result. The output bytes are therefore identical for any rayon thread count
+//! (tested for the renderer with 1, 2 and 3 threads).
 //!
 //! # Conventions
 //! Camera frame = OpenCV optical axes (x right, y down, z forward); `world_from_camera` maps
@@ -48,10 +56,11 @@ pub use depth_sensor::{DepthSensorParams, depth_to_mm};
 pub use light::LightConditions;
 pub use rgb_sensor::{Exposure, RgbSensorParams};
 
+use crate::scene::textures::NoiseCache;
 use crate::scene::{Candidates, Hit, Ray, Scene, Slab};
 use depth_sensor::DepthSample;
-use rgb_sensor::{HISTOGRAM_BINS, histogram_bin, srgb_lut};
-use shading::{LightSetup, SHADOW_BIAS_M, Shaded, TraceHints, shade_hit, shade_sky, trace};
+use rgb_sensor::{HISTOGRAM_BINS, histogram_bin};
+use shading::{LightSetup, SHADOW_BIAS_M, Shaded, TraceHints, shade_hit, shade_sky, trace_culled};
 
 /// Errors of rendering.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -226,17 +235,27 @@ struct Cam {
 }
 
 impl Cam {
-    #[inline]
+    /// The world ray through undistorted image coordinates `xy` and the `d_z` of its unit
+    /// camera-frame direction `(x, y, 1) / |(x, y, 1)|`, which is rotated by `r`. Plain
+    /// arithmetic in nalgebra's order (norm `((x x + y y) + 1)^(1/2)`, matrix rows
+    /// `(m0 d0 + m1 d1) + m2 d2`), so a per-pixel loop keeps the matrix in registers.
+    #[inline(always)]
     fn ray(&self, xy: [f64; 2]) -> (Ray, f64) {
-        let d = Vector3::new(xy[0], xy[1], 1.0);
-        let inv = 1.0 / d.norm();
-        let dc = d * inv;
+        let (x, y) = (xy[0], xy[1]);
+        let inv = 1.0 / ((x * x + y * y) + 1.0).sqrt();
+        let d = [x * inv, y * inv, inv];
+        let r = &self.r;
+        let row = |m0: f64, m1: f64, m2: f64| (m0 * d[0] + m1 * d[1]) + m2 * d[2];
         (
             Ray {
                 origin: self.origin,
-                dir: self.r * dc,
+                dir: Vector3::new(
+                    row(r.m11, r.m12, r.m13),
+                    row(r.m21, r.m22, r.m23),
+                    row(r.m31, r.m32, r.m33),
+                ),
             },
-            dc.z,
+            inv,
         )
     }
 }
@@ -277,6 +296,21 @@ fn interpolate_rays(
     Some(lerp(lerp(p00, p10, fx), lerp(p01, p11, fx), fy))
 }
 
+/// Whether pixel `(col, row)` of a `w` x `h` key image sees another primitive than one of
+/// its 4-neighbours.
+#[inline(always)]
+fn primitive_edge(keys: &[u32], w: usize, h: usize, col: usize, row: usize) -> bool {
+    let p = row * w + col;
+    let Some(&kc) = keys.get(p) else {
+        return false;
+    };
+    let differs = |q: usize| keys.get(q).is_some_and(|&k| k != kc);
+    (col > 0 && differs(p - 1))
+        || (col + 1 < w && differs(p + 1))
+        || (row > 0 && differs(p - w))
+        || (row + 1 < h && differs(p + w))
+}
+
 /// Rows `row0 .. row0 + rows` of a `width`-pixel image.
 struct Band {
     row0: usize,
@@ -284,16 +318,142 @@ struct Band {
     width: usize,
 }
 
+/// One primary ray of a tile: index in the band, pixel column and row, ray, `d_z` of its
+/// unit camera-frame direction (depth = `t d_z`) and closest hit.
+#[derive(Clone, Copy)]
+struct TileRay {
+    j: usize,
+    col: u32,
+    row: u32,
+    ray: Ray,
+    dz: f64,
+    hit: Option<Hit>,
+}
+
+/// `[min, max]` grown by `x` (finite values: plain comparisons, one `minsd`/`maxsd` each).
+#[inline(always)]
+fn grow(range: [f64; 2], x: f64) -> [f64; 2] {
+    [
+        if x < range[0] { x } else { range[0] },
+        if x > range[1] { x } else { range[1] },
+    ]
+}
+
 /// Per-thread buffers of [`render_tile`].
 #[derive(Default)]
 struct TileScratch {
-    rays: Vec<(usize, Ray, f64, Option<Hit>)>,
+    rays: Vec<TileRay>,
     primary: Candidates,
     shadow: Candidates,
+    noise: NoiseCache,
+}
+
+/// Half-spaces `n_cam . p_cam >= 0` through the camera centre bounding the rays whose
+/// undistorted coordinates lie in `[x0, x1] x [y0, y1]` (widened by [`FRUSTUM_MARGIN`]),
+/// in the world frame, plus the half-space in front of the camera.
+fn frustum(cam: &Cam, x: [f64; 2], y: [f64; 2]) -> [Slab; 5] {
+    let (x0, x1) = (x[0] - FRUSTUM_MARGIN, x[1] + FRUSTUM_MARGIN);
+    let (y0, y1) = (y[0] - FRUSTUM_MARGIN, y[1] + FRUSTUM_MARGIN);
+    let o = cam.origin;
+    let planes = [
+        Vector3::new(1.0, 0.0, -x0),
+        Vector3::new(-1.0, 0.0, x1),
+        Vector3::new(0.0, 1.0, -y0),
+        Vector3::new(0.0, -1.0, y1),
+        Vector3::new(0.0, 0.0, 1.0),
+    ];
+    planes.map(|n| {
+        let nw = cam.r * n;
+        Slab {
+            normal: [nw.x, nw.y, nw.z],
+            lo: nw.dot(&o.coords),
+            hi: f64::INFINITY,
+        }
+    })
+}
+
+/// The beam swept from the box `[lo, hi]` of shadow-ray origins along the unit sun
+/// direction `s` (separating axes: two perpendiculars of `s`, `s` itself, the world axes),
+/// widened by [`BEAM_MARGIN_M`].
+fn shadow_beam(lo: [f64; 3], hi: [f64; 3], s: &Vector3<f64>) -> [Slab; 6] {
+    let e1 = crate::scene::primitives::perpendicular(s);
+    let e2 = s.cross(&e1);
+    let c = Vector3::new(
+        0.5 * (lo[0] + hi[0]),
+        0.5 * (lo[1] + hi[1]),
+        0.5 * (lo[2] + hi[2]),
+    );
+    let h = Vector3::new(
+        0.5 * (hi[0] - lo[0]),
+        0.5 * (hi[1] - lo[1]),
+        0.5 * (hi[2] - lo[2]),
+    );
+    let span = |a: &Vector3<f64>| {
+        let d = a.dot(&c);
+        let r = a.abs().dot(&h) + BEAM_MARGIN_M;
+        (d - r, d + r)
+    };
+    let (e1_lo, e1_hi) = span(&e1);
+    let (e2_lo, e2_hi) = span(&e2);
+    let (s_lo, _) = span(s);
+    let axis = |k: usize| {
+        let mut n = [0.0; 3];
+        n[k] = 1.0;
+        if s[k] >= 0.0 {
+            Slab {
+                normal: n,
+                lo: lo[k],
+                hi: f64::INFINITY,
+            }
+        } else {
+            Slab {
+                normal: n,
+                lo: f64::NEG_INFINITY,
+                hi: hi[k],
+            }
+        }
+    };
+    [
+        Slab {
+            normal: [e1.x, e1.y, e1.z],
+            lo: e1_lo,
+            hi: e1_hi,
+        },
+        Slab {
+            normal: [e2.x, e2.y, e2.z],
+            lo: e2_lo,
+            hi: e2_hi,
+        },
+        Slab {
+            normal: [s.x, s.y, s.z],
+            lo: s_lo,
+            hi: f64::INFINITY,
+        },
+        axis(0),
+        axis(1),
+        axis(2),
+    ]
+}
+
+/// Box of the hit points of `rays` (empty, `lo > hi`, if none hit), padded by the shadow
+/// bias and [`BEAM_MARGIN_M`] so it contains every shadow-ray origin.
+fn shadow_origins(rays: &[TileRay]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for r in rays {
+        if let Some(h) = &r.hit {
+            let p = r.ray.at(h.t_m);
+            for k in 0..3 {
+                [lo[k], hi[k]] = grow([lo[k], hi[k]], p[k]);
+            }
+        }
+    }
+    let pad = SHADOW_BIAS_M + BEAM_MARGIN_M;
+    (lo.map(|x| x - pad), hi.map(|x| x + pad))
 }
 
 /// Traces and shades the centre samples of the tile `cols` x `band`, calling
-/// `out(index in band, shaded, dz)` per pixel. Primary rays are tested only against the
+/// `out(index in band, column, row, shaded, dz)` per pixel. Primary rays are tested only against the
 /// static primitives inside the tile's frustum, shadow rays only against those inside the
 /// beam swept by the tile's hit points towards the sun (both exact: the volumes contain
 /// every ray).
@@ -306,141 +466,55 @@ fn render_tile(
     band: &Band,
     cols: std::ops::Range<usize>,
     sc: &mut TileScratch,
-    mut out: impl FnMut(usize, &Shaded, f64),
+    mut out: impl FnMut(usize, u32, u32, &Shaded, f64),
 ) {
     let w = band.width;
-    // Frustum of the tile: x/z and y/z ranges of its rays (camera frame).
-    let (mut x0, mut x1, mut y0, mut y1) = (
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-    );
+    let o = [cam.origin.x, cam.origin.y, cam.origin.z];
     sc.rays.clear();
+    let mut x_range = [f64::INFINITY, f64::NEG_INFINITY];
+    let mut y_range = [f64::INFINITY, f64::NEG_INFINITY];
     for r in 0..band.rows {
         for c in cols.clone() {
             let j = r * w + c;
             let xy = table.get(band.row0 * w + j).copied().unwrap_or([0.0; 2]);
-            x0 = x0.min(xy[0]);
-            x1 = x1.max(xy[0]);
-            y0 = y0.min(xy[1]);
-            y1 = y1.max(xy[1]);
+            x_range = grow(x_range, xy[0]);
+            y_range = grow(y_range, xy[1]);
             let (ray, dz) = cam.ray(xy);
-            sc.rays.push((j, ray, dz, None));
+            sc.rays.push(TileRay {
+                j,
+                col: c as u32,
+                row: (band.row0 + r) as u32,
+                ray,
+                dz,
+                hit: None,
+            });
         }
     }
-    let (x0, x1) = (x0 - FRUSTUM_MARGIN, x1 + FRUSTUM_MARGIN);
-    let (y0, y1) = (y0 - FRUSTUM_MARGIN, y1 + FRUSTUM_MARGIN);
-    let o = cam.origin;
-    // Half-spaces n_cam . p_cam >= 0 through the camera centre, mapped to the world.
-    let planes = [
-        Vector3::new(1.0, 0.0, -x0),
-        Vector3::new(-1.0, 0.0, x1),
-        Vector3::new(0.0, 1.0, -y0),
-        Vector3::new(0.0, -1.0, y1),
-        Vector3::new(0.0, 0.0, 1.0),
-    ];
-    let slabs = planes.map(|n| {
-        let nw = cam.r * n;
-        Slab {
-            normal: [nw.x, nw.y, nw.z],
-            lo: nw.dot(&o.coords),
-            hi: f64::INFINITY,
-        }
-    });
-    scene.cull(&slabs, [o.x, o.y, o.z], CULL_LIMIT, &mut sc.primary);
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for (_, ray, _, hit) in &mut sc.rays {
-        *hit = scene.intersect_culled(ray, 0.0, f64::INFINITY, &sc.primary);
-        if let Some(h) = hit {
-            let p = ray.at(h.t_m);
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
+    let frustum = frustum(cam, x_range, y_range);
+    scene.cull(&frustum, o, o, CULL_LIMIT, &mut sc.primary);
+    // The previous ray's winner is tested first (neighbours mostly hit the same primitive).
+    let mut hint = None;
+    for r in &mut sc.rays {
+        r.hit = scene.intersect_culled_hinted(&r.ray, 0.0, f64::INFINITY, &sc.primary, &mut hint);
     }
-    // Beam of the shadow rays: origins within the hit points' box (plus the bias), all
-    // along the sun direction.
-    let shadows = setup.casts_shadows() && lo[0] <= hi[0];
-    if shadows {
-        let pad = SHADOW_BIAS_M + BEAM_MARGIN_M;
-        let lo = lo.map(|x| x - pad);
-        let hi = hi.map(|x| x + pad);
-        let s = setup.sun_direction();
-        let e1 = crate::scene::primitives::perpendicular(&s);
-        let e2 = s.cross(&e1);
-        let c = Vector3::new(
-            0.5 * (lo[0] + hi[0]),
-            0.5 * (lo[1] + hi[1]),
-            0.5 * (lo[2] + hi[2]),
-        );
-        let h = Vector3::new(
-            0.5 * (hi[0] - lo[0]),
-            0.5 * (hi[1] - lo[1]),
-            0.5 * (hi[2] - lo[2]),
-        );
-        let span = |a: &Vector3<f64>| {
-            let d = a.dot(&c);
-            let r = a.abs().dot(&h) + BEAM_MARGIN_M;
-            (d - r, d + r)
-        };
-        let (e1_lo, e1_hi) = span(&e1);
-        let (e2_lo, e2_hi) = span(&e2);
-        let (s_lo, _) = span(&s);
-        let axis = |k: usize| {
-            let mut n = [0.0; 3];
-            n[k] = 1.0;
-            if s[k] >= 0.0 {
-                Slab {
-                    normal: n,
-                    lo: lo[k],
-                    hi: f64::INFINITY,
-                }
-            } else {
-                Slab {
-                    normal: n,
-                    lo: f64::NEG_INFINITY,
-                    hi: hi[k],
-                }
-            }
-        };
-        let beam = [
-            Slab {
-                normal: [e1.x, e1.y, e1.z],
-                lo: e1_lo,
-                hi: e1_hi,
-            },
-            Slab {
-                normal: [e2.x, e2.y, e2.z],
-                lo: e2_lo,
-                hi: e2_hi,
-            },
-            Slab {
-                normal: [s.x, s.y, s.z],
-                lo: s_lo,
-                hi: f64::INFINITY,
-            },
-            axis(0),
-            axis(1),
-            axis(2),
-        ];
-        scene.cull(&beam, [c.x, c.y, c.z], CULL_LIMIT, &mut sc.shadow);
-    } else if setup.casts_shadows() {
-        // No hit in the tile, so no shadow ray either; never leave a previous tile's
-        // candidates behind: the unbounded volume (no slabs) keeps everything.
-        scene.cull(&[], [o.x, o.y, o.z], CULL_LIMIT, &mut sc.shadow);
+    if setup.casts_shadows() {
+        let (lo, hi) = shadow_origins(&sc.rays);
+        if lo[0] <= hi[0] {
+            let beam = shadow_beam(lo, hi, &setup.sun_direction());
+            scene.cull(&beam, lo, hi, CULL_LIMIT, &mut sc.shadow);
+        }
+        // Without a hit in the tile no shadow ray is cast (the candidates go unused).
     }
     let shadow = &sc.shadow;
-    for (j, ray, dz, hit) in &sc.rays {
-        let s = match hit {
-            None => shade_sky(setup, ray),
-            Some(h) => shade_hit(scene, setup, ray, h, cam.footprint_per_m, |r| {
-                scene.occluded_culled(r, 0.0, f64::INFINITY, shadow)
+    let noise = &mut sc.noise;
+    for r in &sc.rays {
+        let s = match &r.hit {
+            None => shade_sky(setup, &r.ray),
+            Some(h) => shade_hit(scene, setup, &r.ray, h, cam.footprint_per_m, noise, |sr| {
+                scene.occluded_culled(sr, 0.0, f64::INFINITY, shadow)
             }),
         };
-        out(*j, &s, *dz);
+        out(r.j, r.col, r.row, &s, r.dz);
     }
 }
 
@@ -494,7 +568,7 @@ pub fn render_rgbd_with_rays(
                     &band,
                     cols,
                     &mut scratch,
-                    |j, s: &Shaded, dz| {
+                    |j, col, row, s: &Shaded, dz| {
                         let p = band.row0 * w + j;
                         if let Some(r) = rad.get_mut(j) {
                             *r = s.radiance;
@@ -512,8 +586,8 @@ pub fn render_rgbd_with_rays(
                                 &sample,
                                 seed,
                                 p as u64,
-                                (p % w) as u32,
-                                (p / w) as u32,
+                                col,
+                                row,
                             );
                         }
                     },
@@ -530,42 +604,80 @@ pub fn render_rgbd_with_rays(
             .zip(depth.par_chunks_mut(chunk))
             .enumerate()
             .map(|(ci, (rad, dep))| {
-                let p0 = ci * chunk;
+                let row0 = ci * TILE;
+                let rows = rad.len() / w.max(1);
                 let mut hints = TraceHints::default();
+                let mut cands = Candidates::default();
+                let mut edges: Vec<(usize, usize)> = Vec::with_capacity(TILE * TILE);
                 let mut count = 0;
-                for (j, (r, d)) in rad.iter_mut().zip(dep.iter_mut()).enumerate() {
-                    let p = p0 + j;
-                    let (col, row) = (p % w, p / w);
-                    let kc = keys[p];
-                    let edge = (col > 0 && keys[p - 1] != kc)
-                        || (col + 1 < w && keys[p + 1] != kc)
-                        || (row > 0 && keys[p - w] != kc)
-                        || (row + 1 < h && keys[p + w] != kc);
-                    if !edge {
+                for col0 in (0..w).step_by(TILE) {
+                    let col1 = (col0 + TILE).min(w);
+                    edges.clear();
+                    for row in row0..row0 + rows {
+                        for col in col0..col1 {
+                            if primitive_edge(keys, w, h, col, row) {
+                                edges.push((col, row));
+                            }
+                        }
+                    }
+                    if edges.is_empty() {
                         continue;
                     }
-                    count += 1;
-                    let guess = table.get(p).copied().unwrap_or([0.0; 2]);
-                    let mut acc = *r;
-                    let mut z_min = f64::INFINITY;
-                    let mut z_max = 0.0_f64;
-                    for off in RGSS {
-                        let xy = interpolate_rays(table, w, h, col, row, off).unwrap_or(guess);
-                        let (ray, dz) = cam.ray(xy);
-                        let s: Shaded = trace(scene, &setup, &ray, cam.footprint_per_m, &mut hints);
-                        for (a, x) in acc.iter_mut().zip(s.radiance) {
-                            *a += x;
+                    // Sub-samples interpolate between neighbouring pixel centres, so the
+                    // tile's pixels grown by one on each side bound all their rays.
+                    let (mut xr, mut yr) = (
+                        [f64::INFINITY, f64::NEG_INFINITY],
+                        [f64::INFINITY, f64::NEG_INFINITY],
+                    );
+                    for row in row0.saturating_sub(1)..(row0 + rows + 1).min(h) {
+                        for xy in table
+                            .get(row * w + col0.saturating_sub(1)..row * w + (col1 + 1).min(w))
+                            .unwrap_or(&[])
+                        {
+                            xr = grow(xr, xy[0]);
+                            yr = grow(yr, xy[1]);
                         }
-                        let z = s.t_m * dz;
-                        z_min = z_min.min(z);
-                        z_max = z_max.max(z);
                     }
-                    *r = acc.map(|x| x * 0.2);
-                    if sensor.depth.holes_enabled
-                        && d.is_finite()
-                        && (z_max - z_min) > sensor.depth.flying_pixel_ratio * z_min
-                    {
-                        *d = f32::NAN;
+                    let o = [cam.origin.x, cam.origin.y, cam.origin.z];
+                    scene.cull(&frustum(&cam, xr, yr), o, o, CULL_LIMIT, &mut cands);
+                    for &(col, row) in &edges {
+                        let (Some(r), Some(d)) = (
+                            rad.get_mut((row - row0) * w + col),
+                            dep.get_mut((row - row0) * w + col),
+                        ) else {
+                            continue;
+                        };
+                        count += 1;
+                        let p = row * w + col;
+                        let guess = table.get(p).copied().unwrap_or([0.0; 2]);
+                        let mut acc = *r;
+                        let mut z_min = f64::INFINITY;
+                        let mut z_max = 0.0_f64;
+                        for off in RGSS {
+                            let xy = interpolate_rays(table, w, h, col, row, off).unwrap_or(guess);
+                            let (ray, dz) = cam.ray(xy);
+                            let s: Shaded = trace_culled(
+                                scene,
+                                &setup,
+                                &ray,
+                                cam.footprint_per_m,
+                                &mut hints,
+                                &cands,
+                            );
+                            for (a, x) in acc.iter_mut().zip(s.radiance) {
+                                *a += x;
+                            }
+                            let z = s.t_m * dz;
+                            z_min = z_min.min(z);
+                            z_max = z_max.max(z);
+                        }
+                        *r = acc.map(|x| x * 0.2);
+                        if sensor.depth.holes_enabled
+                            && d.is_finite()
+                            && (z_max - z_min) > sensor.depth.flying_pixel_ratio * z_min
+                        {
+                            *d = f32::NAN;
+                        }
                     }
                 }
                 count
@@ -610,20 +722,14 @@ pub fn render_rgbd_with_rays(
     let exposure = sensor.rgb.auto_exposure(&histogram);
 
     // Pass 3: sensor noise and quantisation.
-    let lut = srgb_lut();
     let rgb_seed = crate::scene::noise::splitmix64(seed ^ RGB_SALT);
     let mut rgb = vec![0u8; 3 * n];
     rgb.par_chunks_mut(3 * chunk)
         .zip(radiance.par_chunks(chunk))
         .enumerate()
         .for_each(|(ci, (out, rad))| {
-            let p0 = ci * chunk;
-            for (j, (o, r)) in out.chunks_exact_mut(3).zip(rad).enumerate() {
-                let l = [r[0] * wb[0], r[1] * wb[1], r[2] * wb[2]];
-                sensor
-                    .rgb
-                    .expose_pixel(l, &exposure, rgb_seed, (p0 + j) as u64, &lut, o);
-            }
+            let p0 = (ci * chunk) as u64;
+            sensor.rgb.expose_run(rad, wb, &exposure, rgb_seed, p0, out);
         });
 
     RgbdFrame {
@@ -672,6 +778,7 @@ pub fn raycast_depth(
 
 #[cfg(test)]
 mod tests {
+    use super::shading::trace;
     use super::*;
     use crate::scene::SubstationBuilder;
 
@@ -773,7 +880,7 @@ mod tests {
                             &band,
                             cols,
                             &mut scratch,
-                            |j, s, _| {
+                            |j, _, _, s, _| {
                                 let p = row0 * w + j;
                                 let (ray, _) = cam.ray(table[p]);
                                 let mut hints = TraceHints::default();

@@ -14,7 +14,8 @@ use nalgebra::{Point3, Vector3};
 
 use super::depth_sensor::DepthSample;
 use super::light::{LightConditions, luminance};
-use crate::scene::{Hit, Ray, Scene, Shading};
+use crate::scene::textures::NoiseCache;
+use crate::scene::{Candidates, Hit, Ray, Scene, Shading};
 
 /// Albedo of the surroundings bouncing light up onto downward-facing surfaces.
 pub const GROUND_BOUNCE_ALBEDO: f64 = 0.2;
@@ -75,11 +76,15 @@ pub struct Shaded {
 const INV_PI: f64 = std::f64::consts::FRAC_1_PI;
 
 /// Primitives hit by the previous primary and shadow rays of a run of neighbouring pixels
-/// (see [`Scene::intersect_hinted`]); they speed tracing up without changing its result.
-#[derive(Clone, Copy, Debug, Default)]
+/// (see [`Scene::intersect_hinted`]) and the texture noise they shared; they speed tracing
+/// up without changing its result.
+#[derive(Clone, Debug, Default)]
 pub struct TraceHints {
     primary: Option<Hit>,
+    /// Winning entry of the candidate list of [`trace_culled`].
+    candidate: Option<usize>,
     shadow: Option<Hit>,
+    noise: NoiseCache,
 }
 
 /// Traces and shades one ray. `footprint_per_m` is the pixel footprint per metre of distance
@@ -99,9 +104,32 @@ pub fn trace(
     let Some(hit) = found else {
         return shade_sky(setup, ray);
     };
-    let shadow_hint = &mut hints.shadow;
-    shade_hit(scene, setup, ray, &hit, footprint_per_m, |r| {
-        scene.occluded_hinted(r, 0.0, f64::INFINITY, shadow_hint)
+    let TraceHints { shadow, noise, .. } = hints;
+    shade_hit(scene, setup, ray, &hit, footprint_per_m, noise, |r| {
+        scene.occluded_hinted(r, 0.0, f64::INFINITY, shadow)
+    })
+}
+
+/// [`trace`] for a ray inside the volume `statics` was culled with (see
+/// [`Scene::intersect_culled`]): the same result, the primary ray tested against the
+/// candidates only.
+#[must_use]
+pub fn trace_culled(
+    scene: &Scene,
+    setup: &LightSetup,
+    ray: &Ray,
+    footprint_per_m: f64,
+    hints: &mut TraceHints,
+    statics: &Candidates,
+) -> Shaded {
+    let found =
+        scene.intersect_culled_hinted(ray, 0.0, f64::INFINITY, statics, &mut hints.candidate);
+    let Some(hit) = found else {
+        return shade_sky(setup, ray);
+    };
+    let TraceHints { shadow, noise, .. } = hints;
+    shade_hit(scene, setup, ray, &hit, footprint_per_m, noise, |r| {
+        scene.occluded_hinted(r, 0.0, f64::INFINITY, shadow)
     })
 }
 
@@ -132,13 +160,15 @@ impl LightSetup {
 }
 
 /// Shades a hit of `ray`; `occluded` answers shadow rays (origin offset by
-/// [`SHADOW_BIAS_M`] along the normal, direction to the sun, `t` in `(0, inf)`).
+/// [`SHADOW_BIAS_M`] along the normal, direction to the sun, `t` in `(0, inf)`), `noise`
+/// memoises texture noise between neighbouring calls (it never changes the result).
 pub fn shade_hit(
     scene: &Scene,
     setup: &LightSetup,
     ray: &Ray,
     hit: &Hit,
     footprint_per_m: f64,
+    noise: &mut NoiseCache,
     mut occluded: impl FnMut(&Ray) -> bool,
 ) -> Shaded {
     let key =
@@ -159,7 +189,7 @@ pub fn shade_hit(
     }
     let mat = scene.material(sp.material);
     let footprint = (hit.t_m * footprint_per_m / cos_i.max(0.2)) as f32;
-    let albedo = mat.albedo(sp.uv_m, sp.face, footprint);
+    let albedo = mat.albedo_cached(sp.uv_m, sp.face, footprint, noise);
     let a = [
         f64::from(albedo[0]),
         f64::from(albedo[1]),

@@ -16,7 +16,9 @@
 //! test `|n.c| +- |n|.h`, conservative); the renderer culls once per pixel tile and per
 //! tile's shadow beam, then tests each ray against the few candidates only.
 
-use super::primitives::{Aabb, Primitive, Ray};
+use nalgebra::Point3;
+
+use super::primitives::{Aabb, BoxFromOrigin, Primitive, Ray};
 
 /// Number of SAH bins per axis.
 pub const SAH_BINS: usize = 12;
@@ -56,6 +58,10 @@ impl Node {
     }
 
     /// Slab test in f32: entry distance if the ray meets the box before `t_max`.
+    ///
+    /// Plain comparisons (one `minss`/`maxss` each, no NaN handling): a NaN slab distance
+    /// (`0 * inf`, a ray parallel to a slab and exactly on its plane) only ever loosens the
+    /// interval, so the test stays conservative: it never rejects a box the ray meets.
     #[inline]
     fn hit(&self, o: &[f32; 3], inv: &[f32; 3], t_max: f32) -> Option<f32> {
         let mut t0 = 0.0_f32;
@@ -63,8 +69,9 @@ impl Node {
         for k in 0..3 {
             let a = (self.lo[k] - o[k]) * inv[k];
             let b = (self.hi[k] - o[k]) * inv[k];
-            t0 = t0.max(a.min(b));
-            t1 = t1.min(a.max(b));
+            let (near, far) = if a < b { (a, b) } else { (b, a) };
+            t0 = if near > t0 { near } else { t0 };
+            t1 = if far < t1 { far } else { t1 };
         }
         (t0 <= t1).then_some(t0)
     }
@@ -96,7 +103,13 @@ pub struct Slab {
 /// volume containing every ray of the bundle (see [`Bvh::cull`]).
 #[derive(Clone, Debug, Default)]
 pub struct Candidates {
-    boxes: Vec<Node>,
+    /// Candidate boxes with a lower bound of the distance along any ray of the bundle to
+    /// each (the distance between the box of ray origins and the candidate's box),
+    /// ascending.
+    boxes: Vec<(f64, Node)>,
+    /// When the bundle's rays share one origin: that origin and, per candidate, its
+    /// origin-only box-test terms (`None` for non-box shapes).
+    shared_origin: Option<(Point3<f64>, Vec<Option<BoxFromOrigin>>)>,
     /// More than the limit passed to [`Bvh::cull`] matched: traverse the hierarchy instead.
     overflow: bool,
     /// Movable objects whose world box overlaps the volume (filled by `Scene::cull`).
@@ -257,10 +270,21 @@ impl Bvh {
     /// Collects into `out` every primitive whose (padded) box overlaps all `slabs`: when the
     /// slabs bound a bundle of rays, the closest and any hit of each ray over `out` equal
     /// those over the whole hierarchy. Gives up (`out.overflowed()`) beyond `limit`
-    /// candidates. Candidates are sorted by the distance of their box centre to `near`
-    /// (nearest first), ties by primitive index.
-    pub fn cull(&self, slabs: &[Slab], near: [f64; 3], limit: usize, out: &mut Candidates) {
+    /// candidates. `origins_lo ..= origins_hi` is a box containing every ray origin of the
+    /// bundle (one point for a camera's primary rays); candidates are sorted by the distance
+    /// between that box and theirs, a lower bound of any ray's entry distance (nearest
+    /// first, ties by primitive index), so closest-hit searches stop at the first candidate
+    /// farther than the best hit.
+    pub fn cull(
+        &self,
+        slabs: &[Slab],
+        origins_lo: [f64; 3],
+        origins_hi: [f64; 3],
+        limit: usize,
+        out: &mut Candidates,
+    ) {
         out.boxes.clear();
+        out.shared_origin = None;
         out.overflow = false;
         if self.nodes.is_empty() {
             return;
@@ -285,7 +309,7 @@ impl Bvh {
                             out.boxes.clear();
                             return;
                         }
-                        out.boxes.push(*pb);
+                        out.boxes.push((0.0, *pb));
                     }
                 }
             } else if sp + 2 <= STACK_DEPTH {
@@ -295,12 +319,38 @@ impl Bvh {
                 sp += 2;
             }
         }
-        let key = |n: &Node| {
-            let d = [0, 1, 2].map(|k| 0.5 * (f64::from(n.lo[k]) + f64::from(n.hi[k])) - near[k]);
-            d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+        // Box-to-box distance: per axis the gap between the intervals (0 if they overlap).
+        let gap = |n: &Node| {
+            let mut d2 = 0.0;
+            for k in 0..3 {
+                let g = (f64::from(n.lo[k]) - origins_hi[k])
+                    .max(origins_lo[k] - f64::from(n.hi[k]))
+                    .max(0.0);
+                d2 += g * g;
+            }
+            d2.sqrt()
         };
+        for (t, n) in &mut out.boxes {
+            *t = gap(n);
+        }
         out.boxes
-            .sort_by(|a, b| key(a).total_cmp(&key(b)).then(a.index.cmp(&b.index)));
+            .sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.index.cmp(&b.1.index)));
+        // One shared origin (a camera's primary rays): evaluate each box's origin terms once.
+        let mut shared = out.shared_origin.take();
+        if origins_lo == origins_hi {
+            let origin = Point3::from(origins_lo);
+            let mut pre = shared.map(|(_, v)| v).unwrap_or_default();
+            pre.clear();
+            pre.extend(out.boxes.iter().map(|(_, n)| {
+                self.prims
+                    .get(n.index as usize)
+                    .and_then(|p| p.shape.box_from_origin(&origin))
+            }));
+            shared = Some((origin, pre));
+        } else {
+            shared = None;
+        }
+        out.shared_origin = shared;
     }
 
     /// Closest hit over culled candidates (the whole hierarchy if they overflowed).
@@ -313,28 +363,84 @@ impl Bvh {
         t_min: f64,
         t_max: f64,
     ) -> Option<BvhHit> {
+        self.intersect_candidates_hinted(cands, ray, t_min, t_max, &mut None)
+    }
+
+    /// [`Self::intersect_candidates`] that tests candidate `*hint` (an index into `cands`,
+    /// e.g. the previous ray's winner) first and stores this ray's winner there: a tight
+    /// first bound lets the box tests reject the rest. The result is the same: the nearest
+    /// hit and, on exact ties, the lowest candidate index (what the in-order scan keeps),
+    /// since candidates ordered before the current winner are accepted at equal distance.
+    #[inline]
+    #[must_use]
+    pub fn intersect_candidates_hinted(
+        &self,
+        cands: &Candidates,
+        ray: &Ray,
+        t_min: f64,
+        t_max: f64,
+        hint: &mut Option<usize>,
+    ) -> Option<BvhHit> {
         if cands.overflow {
             return self.intersect(ray, t_min, t_max);
         }
         let (o, inv) = f32_ray(ray);
-        let mut best = None;
+        // Rays from the shared origin use the candidates' precomputed box terms (same
+        // arithmetic as `Shape::intersect`).
+        let pre = match &cands.shared_origin {
+            Some((origin, pre)) if *origin == ray.origin => pre.as_slice(),
+            _ => &[],
+        };
+        let test = CandidateTest {
+            bvh: self,
+            ray,
+            o,
+            inv,
+            pre,
+            t_min,
+        };
+        let mut best_i = usize::MAX;
         let mut t_best = t_max;
-        for c in &cands.boxes {
-            if c.hit(&o, &inv, t_best as f32).is_none() {
-                continue;
-            }
-            let Some(p) = self.prims.get(c.index as usize) else {
-                continue;
-            };
-            if let Some(t) = p.shape.intersect(ray, t_min, t_best) {
-                t_best = t;
-                best = Some(BvhHit {
-                    t_m: t,
-                    prim: c.index,
-                });
+        let first = hint.unwrap_or(usize::MAX);
+        if let Some(&(t_lo, ref c)) = cands.boxes.get(first)
+            && t_lo < t_best
+            && let Some(t) = test.exact(first, c, t_best)
+        {
+            best_i = first;
+            t_best = t;
+        }
+        for (i, &(t_lo, ref c)) in cands.boxes.iter().enumerate() {
+            if i < best_i {
+                // Ordered before the winner: an exact tie also wins.
+                if t_lo > t_best {
+                    break;
+                }
+                let t_hi = if best_i == usize::MAX {
+                    t_best
+                } else {
+                    t_best.next_up()
+                };
+                if let Some(t) = test.exact(i, c, t_hi) {
+                    best_i = i;
+                    t_best = t;
+                }
+            } else if i > best_i {
+                // Sorted by the lower bound: nothing farther can beat the best hit.
+                if t_lo >= t_best {
+                    break;
+                }
+                if let Some(t) = test.exact(i, c, t_best) {
+                    best_i = i;
+                    t_best = t;
+                }
             }
         }
-        best
+        let (_, c) = cands.boxes.get(best_i)?;
+        *hint = Some(best_i);
+        Some(BvhHit {
+            t_m: t_best,
+            prim: c.index,
+        })
     }
 
     /// Some candidate hit with `t` in `(t_min, t_max)` (any-hit over culled candidates; the
@@ -353,7 +459,7 @@ impl Bvh {
         }
         let (o, inv) = f32_ray(ray);
         let t_hi = t_max as f32;
-        cands.boxes.iter().find_map(|c| {
+        cands.boxes.iter().find_map(|(_, c)| {
             c.hit(&o, &inv, t_hi)?;
             let p = self.prims.get(c.index as usize)?;
             p.shape.intersect(ray, t_min, t_max).map(|_| c.index)
@@ -427,6 +533,35 @@ impl Bvh {
                     break;
                 }
             }
+        }
+    }
+}
+
+/// One ray against single candidates of a [`Candidates`] list.
+struct CandidateTest<'a> {
+    bvh: &'a Bvh,
+    ray: &'a Ray,
+    o: [f32; 3],
+    inv: [f32; 3],
+    /// Precomputed box terms for this ray's origin (empty if none).
+    pre: &'a [Option<BoxFromOrigin>],
+    t_min: f64,
+}
+
+impl CandidateTest<'_> {
+    /// Distance to candidate `i` (box `c`) in `(t_min, t_hi)`: the padded f32 box first,
+    /// then the exact f64 test.
+    #[inline(always)]
+    fn exact(&self, i: usize, c: &Node, t_hi: f64) -> Option<f64> {
+        c.hit(&self.o, &self.inv, t_hi as f32)?;
+        match self.pre.get(i) {
+            Some(Some(b)) => b.intersect(&self.ray.dir, self.t_min, t_hi),
+            _ => self
+                .bvh
+                .prims
+                .get(c.index as usize)?
+                .shape
+                .intersect(self.ray, self.t_min, t_hi),
         }
     }
 }

@@ -502,11 +502,18 @@ impl Scene {
     }
 
     /// Culls the static hierarchy and the movable objects with a convex volume (`slabs`)
-    /// that contains a bundle of rays (a pixel tile's frustum, a beam of shadow rays); see
-    /// [`Bvh::cull`]. `near` orders the static candidates (nearest box centre first), `limit`
-    /// caps their number.
-    pub fn cull(&self, slabs: &[Slab], near: [f64; 3], limit: usize, out: &mut Candidates) {
-        self.statics.cull(slabs, near, limit, out);
+    /// that contains a bundle of rays (a pixel tile's frustum, a beam of shadow rays) whose
+    /// origins lie in the box `origins_lo ..= origins_hi`; see [`Bvh::cull`]. `limit` caps
+    /// the number of static candidates.
+    pub fn cull(
+        &self,
+        slabs: &[Slab],
+        origins_lo: [f64; 3],
+        origins_hi: [f64; 3],
+        limit: usize,
+        out: &mut Candidates,
+    ) {
+        self.statics.cull(slabs, origins_lo, origins_hi, limit, out);
         out.objects.clear();
         for (i, obj) in self.objects.iter().enumerate() {
             // A 1 mm pad covers the rounding of the transformed corners.
@@ -529,6 +536,21 @@ impl Scene {
         t_max: f64,
         statics: &Candidates,
     ) -> Option<Hit> {
+        self.intersect_culled_hinted(ray, t_min, t_max, statics, &mut None)
+    }
+
+    /// [`Self::intersect_culled`] testing the static candidate `*hint` first (see
+    /// [`Bvh::intersect_candidates_hinted`]; same result).
+    #[inline]
+    #[must_use]
+    pub fn intersect_culled_hinted(
+        &self,
+        ray: &Ray,
+        t_min: f64,
+        t_max: f64,
+        statics: &Candidates,
+        hint: &mut Option<usize>,
+    ) -> Option<Hit> {
         let mut best = None;
         let mut t_best = t_max;
         if let Some(g) = &self.ground
@@ -546,7 +568,7 @@ impl Scene {
         }
         if let Some(h) = self
             .statics
-            .intersect_candidates(statics, ray, t_min, t_best)
+            .intersect_candidates_hinted(statics, ray, t_min, t_best, hint)
         {
             t_best = h.t_m;
             best = Some(Hit {

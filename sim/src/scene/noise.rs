@@ -17,6 +17,15 @@
 //!   alias: the analytic half of the renderer's antialiasing).
 //! * Cellular noise: distance to the nearest and second-nearest jittered feature point of a
 //!   unit grid (Worley, SIGGRAPH 1996), with the id of the nearest cell.
+//!
+//! * [`NoiseCache`]: per-thread memo for textures (interpolated low-frequency fbm, cellular
+//!   feature points per cell); its results never depend on what it held before.
+//!
+//! Speed without `unsafe`: fbm octaves and the 9 cells of a cellular lookup are independent,
+//! so they are computed in lanes (`[f32; N]` / `[u32; N]` arrays whose element-wise loops
+//! the compiler turns into SSE4.1 vectors: `roundps`, `pmulld`, `cvtdq2ps`), and only the
+//! final reductions run in the sequential order; results equal the scalar definitions bit
+//! for bit (tested).
 
 /// `lowbias32` finaliser: a bijective 32-bit avalanche hash.
 #[inline]
@@ -165,28 +174,213 @@ fn lattice_index(xf: f32) -> u32 {
     (xf + INT_MAGIC).to_bits().wrapping_sub(INT_MAGIC.to_bits())
 }
 
+/// Octaves evaluated together in one lane group of [`fbm2`] (4 or 8 lanes: one or two SSE
+/// vectors).
+const FBM_LANES_SMALL: usize = 4;
+/// Lanes of the wide group of [`fbm2`] (5 to 8 octaves).
+const FBM_LANES_WIDE: usize = 8;
+
 /// Fractal value noise in roughly [-0.5, 0.5]: `sum_o gain^o (value2(2.13^o p / scale) - 0.5)`,
 /// normalised by the sum of weights, octaves below the pixel footprint faded out.
+///
+/// The octaves are independent value-noise lookups, so they are evaluated side by side in
+/// lanes (`[f32; N]` arrays the compiler maps to SSE vectors: floor, lattice hash, fade
+/// and blend of up to 8 octaves at once); the weighted sum is then taken in octave order,
+/// so the result equals the octave-by-octave loop bit for bit.
+#[inline(always)]
 #[must_use]
 pub fn fbm2(x: f32, y: f32, scale_m: f32, octaves: u32, footprint_m: f32, seed: u32) -> f32 {
-    let mut freq = 1.0 / scale_m;
-    // Octave wavelength in pixel footprints (the band_weight argument, without divisions).
-    let mut wavelength_px = scale_m / footprint_m.max(1e-9);
-    let mut amp = 1.0;
-    let mut sum = 0.0;
-    let mut norm = 0.0;
-    for o in 0..octaves {
-        let w = ((wavelength_px - 2.0) * 0.5).clamp(0.0, 1.0);
-        if w <= 0.0 {
-            break;
+    let mut acc = FbmAcc {
+        freq: 1.0 / scale_m,
+        // Octave wavelength in pixel footprints (the band_weight argument, without divisions).
+        wavelength_px: scale_m / footprint_m.max(1e-9),
+        amp: 1.0,
+        sum: 0.0,
+        norm: 0.0,
+    };
+    if octaves as usize <= FBM_LANES_SMALL {
+        let plan = FbmPlan::new(x, y, scale_m, octaves, footprint_m, seed);
+        return plan.finish(value2_lanes(plan.x, plan.y, plan.seed));
+    } else {
+        let mut o = 0;
+        while o < octaves && fbm_lanes::<FBM_LANES_WIDE>(x, y, o, octaves - o, seed, &mut acc) {
+            o += FBM_LANES_WIDE as u32;
         }
-        sum += amp * w * (value2(x * freq, y * freq, seed.wrapping_add(o * 0x9e37)) - 0.5);
-        norm += amp;
-        freq *= LACUNARITY;
-        wavelength_px *= 1.0 / LACUNARITY;
-        amp *= GAIN;
     }
-    if norm > 0.0 { sum / norm } else { 0.0 }
+    if acc.norm > 0.0 {
+        acc.sum / acc.norm
+    } else {
+        0.0
+    }
+}
+
+/// Running state of [`fbm2`] across lane groups.
+struct FbmAcc {
+    freq: f32,
+    wavelength_px: f32,
+    amp: f32,
+    sum: f32,
+    norm: f32,
+}
+
+/// Octaves `first .. first + min(count, N)` of [`fbm2`] in `N` lanes; returns whether all
+/// `N` were in band and more remain (another group is needed).
+#[inline(always)]
+fn fbm_lanes<const N: usize>(
+    x: f32,
+    y: f32,
+    first: u32,
+    count: u32,
+    seed: u32,
+    acc: &mut FbmAcc,
+) -> bool {
+    // Per-octave constants by the same running products as a sequential loop, so every
+    // frequency and weight has the sequential loop's bits.
+    let mut freq = [0.0_f32; N];
+    let mut wl = [0.0_f32; N];
+    let mut amp = [0.0_f32; N];
+    for i in 0..N {
+        freq[i] = acc.freq;
+        wl[i] = acc.wavelength_px;
+        amp[i] = acc.amp;
+        acc.freq *= LACUNARITY;
+        acc.wavelength_px *= 1.0 / LACUNARITY;
+        acc.amp *= GAIN;
+    }
+    // The wavelengths fall with the octave, so the in-band octaves are a prefix (the
+    // sequential loop's early exit).
+    let mut weight = [0.0_f32; N];
+    let mut xs = [0.0_f32; N];
+    let mut ys = [0.0_f32; N];
+    let mut seeds = [0_u32; N];
+    let mut active = [false; N];
+    for i in 0..N {
+        let w = ((wl[i] - 2.0) * 0.5).clamp(0.0, 1.0);
+        active[i] = (i as u32) < count && w > 0.0;
+        weight[i] = if active[i] { amp[i] * w } else { 0.0 };
+        xs[i] = x * freq[i];
+        ys[i] = y * freq[i];
+        seeds[i] = seed.wrapping_add((first + i as u32).wrapping_mul(0x9e37));
+    }
+    let v = value_lanes(xs, ys, seeds);
+    for i in 0..N {
+        // Inactive lanes add +0.0, which changes no sum.
+        acc.norm += if active[i] { amp[i] } else { 0.0 };
+        acc.sum += weight[i] * (v[i] - 0.5);
+    }
+    active[N - 1] && count as usize > N
+}
+
+/// The octave lookups of an [`fbm2`] of at most four octaves, laid out as the lanes of one
+/// [`value2_lanes`] call, so a texture can batch them with its other value-noise lookups
+/// (lanes `octaves..4` are free for those): `plan.finish(value2_lanes(..))` equals
+/// [`fbm2`] bit for bit.
+#[derive(Clone, Copy, Debug)]
+pub struct FbmPlan {
+    /// Lookup x per lane (octave `o`: `x 2.13^o / scale`).
+    pub x: [f32; FBM_LANES_SMALL],
+    /// Lookup y per lane.
+    pub y: [f32; FBM_LANES_SMALL],
+    /// Lookup seed per lane.
+    pub seed: [u32; FBM_LANES_SMALL],
+    weight: [f32; FBM_LANES_SMALL],
+    active: [bool; FBM_LANES_SMALL],
+    norm: f32,
+}
+
+impl FbmPlan {
+    /// Plans `fbm2(x, y, scale_m, octaves.min(4), footprint_m, seed)`.
+    #[inline(always)]
+    #[must_use]
+    pub fn new(x: f32, y: f32, scale_m: f32, octaves: u32, footprint_m: f32, seed: u32) -> Self {
+        let mut acc = FbmAcc {
+            freq: 1.0 / scale_m,
+            wavelength_px: scale_m / footprint_m.max(1e-9),
+            amp: 1.0,
+            sum: 0.0,
+            norm: 0.0,
+        };
+        let mut plan = Self {
+            x: [0.0; FBM_LANES_SMALL],
+            y: [0.0; FBM_LANES_SMALL],
+            seed: [0; FBM_LANES_SMALL],
+            weight: [0.0; FBM_LANES_SMALL],
+            active: [false; FBM_LANES_SMALL],
+            norm: 0.0,
+        };
+        // Per-octave constants by the same running products as the sequential loop.
+        for i in 0..FBM_LANES_SMALL {
+            let w = ((acc.wavelength_px - 2.0) * 0.5).clamp(0.0, 1.0);
+            // In-band octaves are a prefix (wavelengths fall with the octave).
+            plan.active[i] = (i as u32) < octaves && w > 0.0;
+            plan.weight[i] = if plan.active[i] { acc.amp * w } else { 0.0 };
+            plan.x[i] = x * acc.freq;
+            plan.y[i] = y * acc.freq;
+            plan.seed[i] = seed.wrapping_add((i as u32).wrapping_mul(0x9e37));
+            acc.norm += if plan.active[i] { acc.amp } else { 0.0 };
+            acc.freq *= LACUNARITY;
+            acc.wavelength_px *= 1.0 / LACUNARITY;
+            acc.amp *= GAIN;
+        }
+        plan.norm = acc.norm;
+        plan
+    }
+
+    /// The fbm from the lane values `v` (only the planned octaves' lanes are read).
+    #[inline(always)]
+    #[must_use]
+    pub fn finish(&self, v: [f32; FBM_LANES_SMALL]) -> f32 {
+        let mut sum = 0.0;
+        for ((&active, &weight), &v) in self.active.iter().zip(&self.weight).zip(&v) {
+            // Inactive lanes add +0.0 (whatever the lane held), which changes no sum.
+            sum += if active { weight * (v - 0.5) } else { 0.0 };
+        }
+        if self.norm > 0.0 {
+            sum / self.norm
+        } else {
+            0.0
+        }
+    }
+}
+
+/// [`value2`] of four points at once (one SSE vector per step), bit for bit.
+#[inline(always)]
+#[must_use]
+pub fn value2_lanes(x: [f32; 4], y: [f32; 4], seed: [u32; 4]) -> [f32; 4] {
+    value_lanes(x, y, seed)
+}
+
+/// [`value2`] of `N` points at once, lane by lane the same operations (and bits).
+#[inline(always)]
+fn value_lanes<const N: usize>(x: [f32; N], y: [f32; N], seed: [u32; N]) -> [f32; N] {
+    let mut out = [0.0_f32; N];
+    for i in 0..N {
+        let xf = x[i].floor();
+        let yf = y[i].floor();
+        let (ix, iy) = (lattice_index(xf), lattice_index(yf));
+        let (tx, ty) = (fade(x[i] - xf), fade(y[i] - yf));
+        let s = seed[i].wrapping_mul(SPREAD_SEED);
+        let x0 = ix.wrapping_mul(SPREAD_X);
+        let x1 = ix.wrapping_add(1).wrapping_mul(SPREAD_X);
+        let y0 = iy.wrapping_mul(SPREAD_Y) ^ s;
+        let y1 = iy.wrapping_add(1).wrapping_mul(SPREAD_Y) ^ s;
+        let a = unit_f32(lattice_hash(x0 ^ y0));
+        let b = unit_f32(lattice_hash(x1 ^ y0));
+        let c = unit_f32(lattice_hash(x0 ^ y1));
+        let d = unit_f32(lattice_hash(x1 ^ y1));
+        let ab = a + (b - a) * tx;
+        let cd = c + (d - c) * tx;
+        out[i] = ab + (cd - ab) * ty;
+    }
+    out
+}
+
+/// One lane of [`lattice_lanes`].
+#[inline(always)]
+fn lattice_hash(mut v: u32) -> u32 {
+    v ^= v >> 16;
+    v = v.wrapping_mul(LATTICE_MUL);
+    v ^ (v >> 15)
 }
 
 /// Result of [`cellular2`].
@@ -203,38 +397,323 @@ pub struct Cell {
 /// Worley cellular noise on a unit grid with one jittered feature point per cell: the
 /// point of cell `c` is `c + 0.1 + 0.8 (lo16(h), hi16(h)) / 2^16` with `h = hash2(c, seed)`
 /// (one hash per cell); distances are compared squared and rooted once.
+///
+/// The 9 cells of the 3x3 neighbourhood are hashed and measured in lanes; `f1` is the lane
+/// minimum, `id` the hash of the first cell (row-major) attaining it and `f2` the minimum
+/// of the other lanes, exactly what the sequential scan would keep.
 #[must_use]
 pub fn cellular2(x: f32, y: f32, seed: u32) -> Cell {
     let xf = x.floor();
     let yf = y.floor();
-    let (fx, fy) = (x - xf, y - yf);
-    let (ix, iy) = (lattice_index(xf), lattice_index(yf));
+    let pts = cell_points(lattice_index(xf), lattice_index(yf), seed);
+    nearest_points(&pts, x - xf, y - yf)
+}
+
+/// Feature points of the 3x3 cells around lattice cell `(ix, iy)` (relative to its corner,
+/// lane `i = 3 dy + dx`, padded to [`CELL_LANES`]) and their cell hashes.
+#[derive(Clone, Copy, Debug)]
+struct CellPoints {
+    px: [[f32; 4]; 3],
+    py: [[f32; 4]; 3],
+    h: [u32; CELL_LANES],
+}
+
+#[inline(always)]
+fn cell_points(ix: u32, iy: u32, seed: u32) -> CellPoints {
     let s = seed.wrapping_mul(SPREAD_SEED);
-    let mut f1 = f32::MAX;
-    let mut f2 = f32::MAX;
-    let mut id = 0;
-    for dy in 0..3_u32 {
-        let ky = iy.wrapping_add(dy).wrapping_sub(1).wrapping_mul(SPREAD_Y) ^ s;
-        for dx in 0..3_u32 {
-            let h = hash_u32(ix.wrapping_add(dx).wrapping_sub(1).wrapping_mul(SPREAD_X) ^ ky);
-            let px = dx as f32 - 0.9 + 0.8 * jitter16(h & 0xffff);
-            let py = dy as f32 - 0.9 + 0.8 * jitter16(h >> 16);
-            let (ex, ey) = (px - fx, py - fy);
-            let d = ex * ex + ey * ey;
-            if d < f1 {
-                f2 = f1;
-                f1 = d;
-                id = h;
-            } else if d < f2 {
-                f2 = d;
-            }
+    // Cell keys in lanes (3 SSE vectors; the last 3 lanes are padding and never win).
+    let mut key = [0_u32; CELL_LANES];
+    for i in 0..CELL_LANES {
+        let kx = ix.wrapping_add(CELL_DX[i]).wrapping_mul(SPREAD_X);
+        let ky = iy.wrapping_add(CELL_DY[i]).wrapping_mul(SPREAD_Y) ^ s;
+        key[i] = kx ^ ky;
+    }
+    let h = key.map(hash_u32);
+    let mut px = [[0.0_f32; 4]; 3];
+    let mut py = [[0.0_f32; 4]; 3];
+    for i in 0..CELL_LANES {
+        // Padding lanes sit far away (squared distance ~1e36, finite): they never win.
+        let pad = if i < CELLS { 0.0 } else { CELL_PAD_OFFSET };
+        px[i / 4][i % 4] = CELL_X[i] + 0.8 * jitter16(h[i] & 0xffff) + pad;
+        py[i / 4][i % 4] = CELL_Y[i] + 0.8 * jitter16(h[i] >> 16);
+    }
+    CellPoints { px, py, h }
+}
+
+/// [`Cell`] of the position `(fx, fy)` within the centre cell of `pts`.
+#[inline(always)]
+fn nearest_points(pts: &CellPoints, fx: f32, fy: f32) -> Cell {
+    // Three groups of four lanes (one SSE vector each).
+    let mut d = [[0.0_f32; 4]; 3];
+    for ((dg, xg), yg) in d.iter_mut().zip(&pts.px).zip(&pts.py) {
+        for ((dl, x), y) in dg.iter_mut().zip(xg).zip(yg) {
+            let (ex, ey) = (x - fx, y - fy);
+            *dl = ex * ex + ey * ey;
         }
     }
+    // Minimum is exact in any order: lane-wise over the groups, then across the lanes.
+    let lt = |a: f32, b: f32| if a < b { a } else { b };
+    let min4 = |d: &[[f32; 4]; 3]| {
+        let mut m = [0.0_f32; 4];
+        for l in 0..4 {
+            m[l] = lt(lt(d[0][l], d[1][l]), d[2][l]);
+        }
+        lt(lt(m[0], m[2]), lt(m[1], m[3]))
+    };
+    let f1 = min4(&d);
+    // Lanes equal to the minimum (bit mask); the nearest cell is the first of them.
+    let mut equal = 0_u32;
+    let mut above = d;
+    for (g, ag) in above.iter_mut().enumerate() {
+        for (l, a) in ag.iter_mut().enumerate() {
+            let v = *a;
+            equal |= u32::from(v == f1) << (4 * g + l);
+            *a = if v > f1 { v } else { f32::MAX };
+        }
+    }
+    let k = (equal.trailing_zeros() as usize).min(CELL_LANES - 1);
+    // Second nearest: f1 again if another lane ties with it, else the least of the rest.
+    let f2 = if equal.count_ones() >= 2 {
+        f1
+    } else {
+        min4(&above)
+    };
     Cell {
         f1: f1.sqrt(),
         f2: f2.sqrt(),
-        id,
+        id: pts.h[k],
     }
+}
+
+/// Cells of the 3x3 neighbourhood searched by [`cellular2`].
+const CELLS: usize = 9;
+/// Lanes of [`cellular2`]: the 9 cells padded to a multiple of 4.
+const CELL_LANES: usize = 12;
+/// x offset of the padding lanes' feature points (cell units): far enough never to be
+/// nearest or second nearest, near enough that the squared distance stays finite in f32.
+const CELL_PAD_OFFSET: f32 = 1e18;
+/// Lattice step `dx - 1` of lane `i = 3 dy + dx` (wrapping u32).
+const CELL_DX: [u32; CELL_LANES] = cell_steps(true);
+/// Lattice step `dy - 1` of lane `i = 3 dy + dx` (wrapping u32).
+const CELL_DY: [u32; CELL_LANES] = cell_steps(false);
+/// `dx - 0.9` of lane `i = 3 dy + dx` (feature point x offset before jitter, relative to
+/// the centre cell's corner).
+const CELL_X: [f32; CELL_LANES] = cell_offsets(true);
+/// `dy - 0.9` of lane `i = 3 dy + dx`.
+const CELL_Y: [f32; CELL_LANES] = cell_offsets(false);
+
+const fn cell_steps(x: bool) -> [u32; CELL_LANES] {
+    let mut out = [0; CELL_LANES];
+    let mut i = 0;
+    while i < CELL_LANES {
+        let k = if x { i % 3 } else { i / 3 };
+        out[i] = (k as u32).wrapping_sub(1);
+        i += 1;
+    }
+    out
+}
+
+const fn cell_offsets(x: bool) -> [f32; CELL_LANES] {
+    let mut out = [0.0; CELL_LANES];
+    let mut i = 0;
+    while i < CELL_LANES {
+        let k = if x { i % 3 } else { i / 3 };
+        out[i] = k as f32 - 0.9;
+        i += 1;
+    }
+    out
+}
+
+/// Samples per wavelength of the finest octave on the grid of [`NoiseCache::fbm2`].
+pub const SMOOTH_SAMPLES_PER_WAVELENGTH: f32 = 8.0;
+/// Finest octave wavelength, in pixel footprints, from which [`NoiseCache::fbm2`]
+/// interpolates (grid cells of at least 8 pixels, so a cell serves dozens of pixels).
+pub const SMOOTH_MIN_WAVELENGTH_PX: f32 = 64.0;
+/// Slots of the interpolated-fbm memo (direct-mapped; a power of two).
+const SMOOTH_SLOTS: usize = 32;
+/// Slots of the cellular-neighbourhood memo (direct-mapped; a power of two).
+const CELL_SLOTS: usize = 8;
+
+/// Memo of noise evaluations that neighbouring pixels share, one per thread.
+///
+/// * Low-frequency fbm ([`Self::fbm2`]): when even the finest octave spans at least
+///   [`SMOOTH_MIN_WAVELENGTH_PX`] pixel footprints, the fbm is the bilinear interpolation
+///   of its values on a grid of [`SMOOTH_SAMPLES_PER_WAVELENGTH`] samples per finest
+///   wavelength (all octaves in band). Interpolating a band-limited function sampled 8
+///   times per shortest wavelength errs by at most `(pi/8)^2/2 ~ 8 %` of that octave's
+///   amplitude (`h^2/8 max|f''|`; the finest octave holds under a fifth of the fbm's
+///   amplitude): below a grey level for every texture contrast here. A grid cell covers at
+///   least 8x8 pixels, so its four corners are evaluated once and reused.
+/// * Cellular noise ([`Self::cellular2`]): the 9 feature points around a lattice cell are
+///   hashed once per cell; every pixel in the cell only measures distances. Bit-identical
+///   to [`cellular2`].
+///
+/// Every value is a pure function of its arguments (entries are keyed by all of them), so
+/// results never depend on what the memo held before: any evaluation order and thread
+/// count gives the same bytes.
+#[derive(Clone, Debug)]
+pub struct NoiseCache {
+    smooth: [SmoothSlot; SMOOTH_SLOTS],
+    cells: [CellSlot; CELL_SLOTS],
+}
+
+/// Key of an interpolated-fbm grid cell: seed, scale bits, octaves, cell indices.
+type SmoothKey = (u32, u32, u32, u32, u32);
+
+#[derive(Clone, Copy, Debug)]
+struct SmoothSlot {
+    key: Option<SmoothKey>,
+    /// fbm at the corners (ix, iy), (ix+1, iy), (ix, iy+1), (ix+1, iy+1).
+    corners: [f32; 4],
+}
+
+#[derive(Clone, Copy, Debug)]
+struct CellSlot {
+    key: Option<(u32, u32, u32)>,
+    points: CellPoints,
+}
+
+impl SmoothSlot {
+    /// Evaluates the cell with lower-left grid node `node` (grid step `step_m`), all octaves
+    /// in band (footprint 0). Out of line: the rare miss stays off the hot path.
+    #[cold]
+    #[inline(never)]
+    fn refill(
+        &mut self,
+        key: SmoothKey,
+        node: [f32; 2],
+        step_m: f32,
+        scale_m: f32,
+        octaves: u32,
+        seed: u32,
+    ) {
+        let at = |i: f32, j: f32| fbm2(i * step_m, j * step_m, scale_m, octaves, 0.0, seed);
+        let [xf, yf] = node;
+        self.corners = [
+            at(xf, yf),
+            at(xf + 1.0, yf),
+            at(xf, yf + 1.0),
+            at(xf + 1.0, yf + 1.0),
+        ];
+        self.key = Some(key);
+    }
+}
+
+impl CellSlot {
+    /// Hashes the feature points around lattice cell `key = (seed, ix, iy)`.
+    #[cold]
+    #[inline(never)]
+    fn refill(&mut self, key: (u32, u32, u32)) {
+        let (seed, ix, iy) = key;
+        self.points = cell_points(ix, iy, seed);
+        self.key = Some(key);
+    }
+}
+
+impl Default for NoiseCache {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl NoiseCache {
+    /// An empty memo.
+    #[must_use]
+    pub fn new() -> Self {
+        Self {
+            smooth: [SmoothSlot {
+                key: None,
+                corners: [0.0; 4],
+            }; SMOOTH_SLOTS],
+            cells: [CellSlot {
+                key: None,
+                points: CellPoints {
+                    px: [[0.0; 4]; 3],
+                    py: [[0.0; 4]; 3],
+                    h: [0; CELL_LANES],
+                },
+            }; CELL_SLOTS],
+        }
+    }
+
+    /// [`fbm2`] for texturing: interpolated from a grid when all octaves are far above the
+    /// pixel footprint (see the type docs), else evaluated directly.
+    #[inline(always)]
+    pub fn fbm2(
+        &mut self,
+        x: f32,
+        y: f32,
+        scale_m: f32,
+        octaves: u32,
+        footprint_m: f32,
+        seed: u32,
+    ) -> f32 {
+        let Some(finest_m) = octaves
+            .checked_sub(1)
+            .and_then(|o| FINEST_WAVELENGTH.get(o as usize))
+            .map(|k| scale_m * k)
+        else {
+            return fbm2(x, y, scale_m, octaves, footprint_m, seed);
+        };
+        // (A NaN footprint also takes the direct path.)
+        let smooth = finest_m >= SMOOTH_MIN_WAVELENGTH_PX * footprint_m;
+        if !smooth {
+            return fbm2(x, y, scale_m, octaves, footprint_m, seed);
+        }
+        let step_m = finest_m * (1.0 / SMOOTH_SAMPLES_PER_WAVELENGTH);
+        let (gx, gy) = (x / step_m, y / step_m);
+        let (xf, yf) = (gx.floor(), gy.floor());
+        let (tx, ty) = (gx - xf, gy - yf);
+        let (ix, iy) = (lattice_index(xf), lattice_index(yf));
+        let key = (seed, scale_m.to_bits(), octaves, ix, iy);
+        let slot = (hash_u32(
+            ix.wrapping_mul(SPREAD_X) ^ iy.wrapping_mul(SPREAD_Y) ^ seed ^ scale_m.to_bits(),
+        ) as usize)
+            % SMOOTH_SLOTS;
+        let entry = &mut self.smooth[slot];
+        if entry.key != Some(key) {
+            entry.refill(key, [xf, yf], step_m, scale_m, octaves, seed);
+        }
+        let [a, b, c, d] = entry.corners;
+        let ab = a + (b - a) * tx;
+        let cd = c + (d - c) * tx;
+        ab + (cd - ab) * ty
+    }
+
+    /// [`cellular2`] with the cell's feature points memoised (bit-identical).
+    #[inline]
+    pub fn cellular2(&mut self, x: f32, y: f32, seed: u32) -> Cell {
+        let xf = x.floor();
+        let yf = y.floor();
+        let (ix, iy) = (lattice_index(xf), lattice_index(yf));
+        let key = (seed, ix, iy);
+        let slot = (hash_u32(ix.wrapping_mul(SPREAD_X) ^ iy.wrapping_mul(SPREAD_Y) ^ seed)
+            as usize)
+            % CELL_SLOTS;
+        let entry = &mut self.cells[slot];
+        if entry.key != Some(key) {
+            entry.refill(key);
+        }
+        nearest_points(&entry.points, x - xf, y - yf)
+    }
+}
+
+/// Wavelength of octave `o` relative to the first: `LACUNARITY^-o` (the running product
+/// of the fbm loop).
+const FINEST_WAVELENGTH: [f32; FBM_MAX_OCTAVES_SMOOTH] = finest_wavelengths();
+/// Octave counts [`NoiseCache::fbm2`] may interpolate.
+const FBM_MAX_OCTAVES_SMOOTH: usize = 12;
+
+const fn finest_wavelengths() -> [f32; FBM_MAX_OCTAVES_SMOOTH] {
+    let mut out = [0.0; FBM_MAX_OCTAVES_SMOOTH];
+    let mut k = 1.0_f32;
+    let mut o = 0;
+    while o < FBM_MAX_OCTAVES_SMOOTH {
+        out[o] = k;
+        k *= 1.0 / LACUNARITY;
+        o += 1;
+    }
+    out
 }
 
 /// A 16-bit value as a float in [0, 1).
@@ -295,6 +774,117 @@ mod tests {
             assert_eq!(c.id, near.1);
             assert!((c.f1 - near.0).abs() < 1e-4, "{} {}", c.f1, near.0);
         }
+    }
+
+    /// The sequential definitions the lane versions must reproduce bit for bit.
+    fn fbm2_sequential(x: f32, y: f32, scale_m: f32, octaves: u32, fp: f32, seed: u32) -> f32 {
+        let mut freq = 1.0 / scale_m;
+        let mut wavelength_px = scale_m / fp.max(1e-9);
+        let (mut amp, mut sum, mut norm) = (1.0, 0.0, 0.0);
+        for o in 0..octaves {
+            let w = ((wavelength_px - 2.0) * 0.5).clamp(0.0, 1.0);
+            if w <= 0.0 {
+                break;
+            }
+            sum += amp * w * (value2(x * freq, y * freq, seed.wrapping_add(o * 0x9e37)) - 0.5);
+            norm += amp;
+            freq *= LACUNARITY;
+            wavelength_px *= 1.0 / LACUNARITY;
+            amp *= GAIN;
+        }
+        if norm > 0.0 { sum / norm } else { 0.0 }
+    }
+
+    fn cellular2_sequential(x: f32, y: f32, seed: u32) -> Cell {
+        let (xf, yf) = (x.floor(), y.floor());
+        let (fx, fy) = (x - xf, y - yf);
+        let (ix, iy) = (lattice_index(xf), lattice_index(yf));
+        let s = seed.wrapping_mul(SPREAD_SEED);
+        let (mut f1, mut f2, mut id) = (f32::MAX, f32::MAX, 0);
+        for dy in 0..3_u32 {
+            let ky = iy.wrapping_add(dy).wrapping_sub(1).wrapping_mul(SPREAD_Y) ^ s;
+            for dx in 0..3_u32 {
+                let h = hash_u32(ix.wrapping_add(dx).wrapping_sub(1).wrapping_mul(SPREAD_X) ^ ky);
+                let px = dx as f32 - 0.9 + 0.8 * jitter16(h & 0xffff);
+                let py = dy as f32 - 0.9 + 0.8 * jitter16(h >> 16);
+                let d = (px - fx) * (px - fx) + (py - fy) * (py - fy);
+                if d < f1 {
+                    (f2, f1, id) = (f1, d, h);
+                } else if d < f2 {
+                    f2 = d;
+                }
+            }
+        }
+        Cell {
+            f1: f1.sqrt(),
+            f2: f2.sqrt(),
+            id,
+        }
+    }
+
+    #[test]
+    fn lane_fbm_and_cellular_equal_the_sequential_definitions_bit_for_bit() {
+        for i in 0..4000_u32 {
+            let x = (i as f32 * 0.618_034).fract() * 3.0 - 1.0 + (i / 97) as f32 * 11.3;
+            let y = (i as f32 * 0.414_214).fract() * 2.0 - 0.7 - (i / 131) as f32 * 7.1;
+            // Footprints from far below to far above the octave wavelengths, so every
+            // band-limit cut-off (0 .. all octaves) occurs.
+            let fp = 1e-5 * 1.7_f32.powi((i % 23) as i32);
+            for octaves in 0..=10 {
+                let a = fbm2(x, y, 0.3, octaves, fp, i);
+                let b = fbm2_sequential(x, y, 0.3, octaves, fp, i);
+                assert_eq!(
+                    a.to_bits(),
+                    b.to_bits(),
+                    "fbm x {x} y {y} o {octaves} fp {fp}"
+                );
+            }
+            let (c, r) = (cellular2(x, y, i), cellular2_sequential(x, y, i));
+            assert_eq!(
+                (c.f1.to_bits(), c.f2.to_bits(), c.id),
+                (r.f1.to_bits(), r.f2.to_bits(), r.id)
+            );
+        }
+    }
+
+    #[test]
+    fn memoised_noise_does_not_depend_on_the_memo_and_stays_close_to_the_direct_noise() {
+        // Two memos: one fresh per query, one shared across a scan that revisits cells
+        // and interleaves seeds and scales (collisions in the direct-mapped slots).
+        let mut shared = NoiseCache::new();
+        let mut worst = 0.0_f32;
+        let mut smooth = 0;
+        for i in 0..20_000_u32 {
+            let x = (i % 200) as f32 * 0.000_31 + (i / 4000) as f32 * 0.7;
+            let y = ((i / 200) % 20) as f32 * 0.000_29 - 0.3;
+            let seed = i % 3;
+            let fp = [0.000_1, 0.000_3, 0.003][(i % 7 % 3) as usize];
+            for (scale, octaves) in [(0.3, 3), (0.12, 2), (0.012, 2), (0.06, 5)] {
+                let a = shared.fbm2(x, y, scale, octaves, fp, seed);
+                let b = NoiseCache::new().fbm2(x, y, scale, octaves, fp, seed);
+                assert_eq!(a.to_bits(), b.to_bits(), "memo state leaked into fbm");
+                let exact = fbm2(x, y, scale, octaves, fp, seed);
+                let finest = scale / LACUNARITY.powi(octaves as i32 - 1);
+                if finest >= SMOOTH_MIN_WAVELENGTH_PX * fp {
+                    smooth += 1;
+                    worst = worst.max((a - exact).abs());
+                } else {
+                    assert_eq!(a.to_bits(), exact.to_bits());
+                }
+            }
+            let c = shared.cellular2(x / 0.005, y / 0.005, seed);
+            let r = cellular2(x / 0.005, y / 0.005, seed);
+            assert_eq!(
+                (c.f1.to_bits(), c.f2.to_bits(), c.id),
+                (r.f1.to_bits(), r.f2.to_bits(), r.id)
+            );
+        }
+        assert!(
+            smooth > 10_000,
+            "the interpolated path was exercised ({smooth})"
+        );
+        // fbm spans about [-0.5, 0.5]; the interpolation error bound is a few 1e-3.
+        assert!(worst < 0.01, "interpolated fbm off by {worst}");
     }
 
     #[test]

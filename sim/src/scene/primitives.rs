@@ -204,6 +204,17 @@ fn stable_quadratic(a: f64, b: f64, c: f64) -> Option<(f64, f64)> {
     Some(if t0 < t1 { (t0, t1) } else { (t1, t0) })
 }
 
+/// `rotation^T v` (box axes are the columns of `rotation`), each component the dot product
+/// `(c_0 v_0 + c_1 v_1) + c_2 v_2` in the order nalgebra's `tr_mul` uses, as plain arrays.
+#[inline(always)]
+fn box_from_object(r: &Matrix3<f64>, v: &Vector3<f64>) -> [f64; 3] {
+    [
+        r.m11 * v.x + r.m21 * v.y + r.m31 * v.z,
+        r.m12 * v.x + r.m22 * v.y + r.m32 * v.z,
+        r.m13 * v.x + r.m23 * v.y + r.m33 * v.z,
+    ]
+}
+
 /// Unit vector perpendicular to `a` (deterministic choice; Duff et al., JCGT 2017).
 #[must_use]
 pub fn perpendicular(a: &Vector3<f64>) -> Vector3<f64> {
@@ -319,42 +330,97 @@ impl Shape {
                 }
                 best.is_finite().then_some(best)
             }
-            Self::Box {
-                center,
-                rotation,
-                half_extents_m,
-            } => {
-                let o = rotation.tr_mul(&(ray.origin - center));
-                let d = rotation.tr_mul(&ray.dir);
-                let mut t0 = f64::NEG_INFINITY;
-                let mut t1 = f64::INFINITY;
-                for k in 0..3 {
-                    if d[k] == 0.0 {
-                        if o[k].abs() > half_extents_m[k] {
-                            return None;
-                        }
-                        continue;
-                    }
-                    let inv = 1.0 / d[k];
-                    let a = (-half_extents_m[k] - o[k]) * inv;
-                    let b = (half_extents_m[k] - o[k]) * inv;
-                    let (near, far) = if a < b { (a, b) } else { (b, a) };
-                    t0 = t0.max(near);
-                    t1 = t1.min(far);
-                }
-                if t0 > t1 {
-                    None
-                } else if ok(t0) {
-                    Some(t0)
-                } else if ok(t1) {
-                    Some(t1)
-                } else {
-                    None
-                }
-            }
+            Self::Box { .. } => self
+                .box_from_origin(&ray.origin)?
+                .intersect(&ray.dir, t_min, t_max),
         }
     }
 
+    /// For a box, the terms of its ray-slab test that depend only on the ray origin (see
+    /// [`BoxFromOrigin`]); `None` for other shapes.
+    #[inline]
+    #[must_use]
+    pub fn box_from_origin(&self, origin: &Point3<f64>) -> Option<BoxFromOrigin> {
+        let Self::Box {
+            center,
+            rotation,
+            half_extents_m,
+        } = self
+        else {
+            return None;
+        };
+        let r = rotation;
+        let o = box_from_object(r, &(origin - center));
+        let h = [half_extents_m.x, half_extents_m.y, half_extents_m.z];
+        Some(BoxFromOrigin {
+            axes: [
+                [r.m11, r.m21, r.m31],
+                [r.m12, r.m22, r.m32],
+                [r.m13, r.m23, r.m33],
+            ],
+            o,
+            h,
+            lo: [0, 1, 2].map(|k| -h[k] - o[k]),
+            hi: [0, 1, 2].map(|k| h[k] - o[k]),
+        })
+    }
+}
+
+/// A box's ray-slab test with the origin-only terms evaluated: the origin `o` in the box
+/// frame and the slab offsets `-h - o`, `h - o`. Rays from one origin (a camera's primary
+/// rays) share them, so each ray only rotates its direction into the box frame; the
+/// arithmetic is that of [`Shape::intersect`] (which uses this type), so results agree
+/// bit for bit.
+#[derive(Clone, Copy, Debug)]
+pub struct BoxFromOrigin {
+    /// The box axes (columns of its rotation), one per row.
+    axes: [[f64; 3]; 3],
+    o: [f64; 3],
+    h: [f64; 3],
+    lo: [f64; 3],
+    hi: [f64; 3],
+}
+
+impl BoxFromOrigin {
+    /// Nearest intersection distance in `(t_min, t_max)` along the unit `dir` from the
+    /// origin this was made for (Kay-Kajiya slabs in the box frame).
+    #[inline]
+    #[must_use]
+    pub fn intersect(&self, dir: &Vector3<f64>, t_min: f64, t_max: f64) -> Option<f64> {
+        let mut t0 = f64::NEG_INFINITY;
+        let mut t1 = f64::INFINITY;
+        for k in 0..3 {
+            let a = &self.axes[k];
+            // (a0 d0 + a1 d1) + a2 d2, the order of `box_from_object`.
+            let d = a[0] * dir.x + a[1] * dir.y + a[2] * dir.z;
+            if d == 0.0 {
+                if self.o[k].abs() > self.h[k] {
+                    return None;
+                }
+                continue;
+            }
+            let inv = 1.0 / d;
+            let a = self.lo[k] * inv;
+            let b = self.hi[k] * inv;
+            // Finite (d != 0): plain comparisons equal f64::max/min here.
+            let (near, far) = if a < b { (a, b) } else { (b, a) };
+            t0 = if near > t0 { near } else { t0 };
+            t1 = if far < t1 { far } else { t1 };
+        }
+        let ok = |t: f64| t > t_min && t < t_max;
+        if t0 > t1 {
+            None
+        } else if ok(t0) {
+            Some(t0)
+        } else if ok(t1) {
+            Some(t1)
+        } else {
+            None
+        }
+    }
+}
+
+impl Shape {
     /// Surface attributes at `p` (a point on the surface, e.g. from [`Shape::intersect`]).
     #[must_use]
     pub fn surface(&self, p: Point3<f64>) -> LocalSurface {
@@ -416,25 +482,31 @@ impl Shape {
                 rotation,
                 half_extents_m,
             } => {
-                let q = rotation.tr_mul(&(p - center));
-                let mut k = 0;
-                let mut best = f64::INFINITY;
-                for i in 0..3 {
-                    let d = (q[i].abs() - half_extents_m[i]).abs();
-                    if d < best {
-                        best = d;
-                        k = i;
-                    }
-                }
-                let s = if q[k] >= 0.0 { 1.0 } else { -1.0 };
-                let normal = rotation.column(k) * s;
+                let q = box_from_object(rotation, &(p - center));
+                let h = [half_extents_m.x, half_extents_m.y, half_extents_m.z];
+                let dist = [0, 1, 2].map(|i| (q[i].abs() - h[i]).abs());
+                // The face nearest to p (first on ties, as a strict-less scan).
+                let k = if dist[1] < dist[0] {
+                    if dist[2] < dist[1] { 2 } else { 1 }
+                } else if dist[2] < dist[0] {
+                    2
+                } else {
+                    0
+                };
+                let positive = q[k] >= 0.0;
+                let axis = match k {
+                    0 => Vector3::new(rotation.m11, rotation.m21, rotation.m31),
+                    1 => Vector3::new(rotation.m12, rotation.m22, rotation.m32),
+                    _ => Vector3::new(rotation.m13, rotation.m23, rotation.m33),
+                };
+                let normal = if positive { axis } else { -axis };
                 let (i, j) = match k {
                     0 => (1, 2),
                     1 => (0, 2),
                     _ => (0, 1),
                 };
-                let uv_m = [q[i] + half_extents_m[i], q[j] + half_extents_m[j]];
-                let face = (2 * k + usize::from(s > 0.0)) as u8;
+                let uv_m = [q[i] + h[i], q[j] + h[j]];
+                let face = (2 * k + usize::from(positive)) as u8;
                 LocalSurface {
                     point: p,
                     normal,

@@ -10,13 +10,22 @@
 //! ramps of width `w` ([`aa_step`]), so a single sample per pixel does not alias (the
 //! renderer supersamples geometric edges separately).
 //!
+//! Cost: the renderer passes a per-thread [`NoiseCache`] ([`Material::albedo_cached`]):
+//! low-frequency fbm (finest octave >= 64 pixel footprints) is interpolated from a grid of 8
+//! samples per finest wavelength, a pure function of `uv` like the rest, and cellular
+//! feature points are hashed once per cell; the bolted panel evaluates its per-pixel value
+//! noise in one 4-lane batch.
+//!
 //! Corner content at the wrist working distance (0.3-0.6 m, one pixel ~ 0.17-0.34 mm with
 //! fx = 1745 px): gravel stones (5-25 mm), bolt heads, text-like glyph blocks (2-4 mm),
 //! rust-stain outlines and galvanising spangle give ORB corners; louvres, cable-tray slots,
 //! conductor strands and insulator discs are the repetitive cases; `Uniform` and lightly
 //! weathered paint are (nearly) textureless.
 
-use super::noise::{aa_step, band_weight, cellular2, fbm2, hash_u32, hash2, unit_f32, value2};
+pub use super::noise::NoiseCache;
+use super::noise::{
+    FbmPlan, aa_step, band_weight, hash_u32, hash2, unit_f32, value2, value2_lanes,
+};
 
 /// Shading class of a material.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -157,6 +166,19 @@ impl Material {
     /// `footprint_m` (metres on the surface).
     #[must_use]
     pub fn albedo(&self, uv_m: [f64; 2], face: u8, footprint_m: f32) -> [f32; 3] {
+        self.albedo_cached(uv_m, face, footprint_m, &mut NoiseCache::new())
+    }
+
+    /// [`Self::albedo`] with a memo of the noise that neighbouring pixels share (one per
+    /// thread, reused from pixel to pixel; the result does not depend on its contents).
+    #[must_use]
+    pub fn albedo_cached(
+        &self,
+        uv_m: [f64; 2],
+        face: u8,
+        footprint_m: f32,
+        nc: &mut NoiseCache,
+    ) -> [f32; 3] {
         // Keep f32 precision: textures repeat every 4096 m, far beyond the scene.
         let u = wrap(uv_m[0], TEXTURE_PERIOD_M) as f32;
         let v = wrap(uv_m[1], TEXTURE_PERIOD_M) as f32;
@@ -166,20 +188,20 @@ impl Material {
         let a = self.accent_rgb;
         match self.texture {
             Texture::Uniform => b,
-            Texture::Painted { grime, rust } => painted(b, u, v, fp, seed, grime, rust),
+            Texture::Painted { grime, rust } => painted(nc, b, u, v, fp, seed, grime, rust),
             Texture::Galvanized => {
                 let w = band_weight(0.008, fp);
-                let c = cellular2(u / 0.008, v / 0.008, seed);
+                let c = nc.cellular2(u / 0.008, v / 0.008, seed);
                 let grain = 0.88
                     + 0.24 * unit_f32(c.id) * w
                     + 0.1 * aa_step(0.06, c.f2 - c.f1, fp / 0.008) * w;
-                let mottle = 1.0 + 0.35 * fbm2(u, v, 0.25, 3, fp, seed ^ 0x55);
+                let mottle = 1.0 + 0.35 * nc.fbm2(u, v, 0.25, 3, fp, seed ^ 0x55);
                 scale(b, grain * mottle)
             }
-            Texture::Gravel { stone_m } => gravel(b, a, u, v, fp, seed, stone_m),
+            Texture::Gravel { stone_m } => gravel(nc, b, a, u, v, fp, seed, stone_m),
             Texture::Concrete => {
-                let tone = 1.0 + 0.45 * fbm2(u, v, 0.35, 5, fp, seed);
-                let c = cellular2(u / 0.004, v / 0.004, seed ^ 0x77);
+                let tone = 1.0 + 0.45 * nc.fbm2(u, v, 0.35, 5, fp, seed);
+                let c = nc.cellular2(u / 0.004, v / 0.004, seed ^ 0x77);
                 let pore =
                     1.0 - 0.5 * (1.0 - aa_step(0.18, c.f1, fp / 0.004)) * band_weight(0.004, fp);
                 let seam_d = ((u / 1.2).fract() - 0.5).abs() * 1.2;
@@ -189,8 +211,8 @@ impl Material {
             Texture::BoltedPanel {
                 pitch_m,
                 bolt_radius_m,
-            } => bolted(b, u, v, fp, seed, pitch_m, bolt_radius_m),
-            Texture::Label { glyph_m } => label(b, a, u, v, fp, seed, glyph_m),
+            } => bolted(nc, b, u, v, fp, seed, pitch_m, bolt_radius_m),
+            Texture::Label { glyph_m } => label(nc, b, a, u, v, fp, seed, glyph_m),
             Texture::Louvres { pitch_m } => {
                 let f = fract01(v / pitch_m);
                 let w = band_weight(pitch_m, fp);
@@ -198,7 +220,7 @@ impl Material {
                 let gap = aa_step(0.75, f, fp / pitch_m);
                 let detail = slat * (1.0 - gap) + 0.12 * gap;
                 let mean = 0.72;
-                let g = 1.0 + 0.15 * fbm2(u, v, 0.3, 3, fp, seed);
+                let g = 1.0 + 0.15 * nc.fbm2(u, v, 0.3, 3, fp, seed);
                 scale(b, (w * detail + (1.0 - w) * mean) * g)
             }
             Texture::CableTray { slot_pitch_m } => {
@@ -211,13 +233,13 @@ impl Material {
                 let d_m = ((dx * dx + dy * dy).sqrt() - 0.06) * p * 0.5;
                 let hole = 1.0 - aa_step(0.0, d_m, fp);
                 let w = band_weight(0.5 * p, fp);
-                let m = 1.0 + 0.25 * fbm2(u, v, 0.2, 3, fp, seed);
+                let m = 1.0 + 0.25 * nc.fbm2(u, v, 0.2, 3, fp, seed);
                 let c = scale(b, m);
                 mix(c, scale(c, 0.08), hole * w + 0.15 * (1.0 - w))
             }
             Texture::Porcelain => {
-                let g = 1.0 + 0.12 * fbm2(u, v, 0.05, 4, fp, seed);
-                let dirt = 1.0 - 0.25 * (fbm2(u, v, 0.3, 3, fp, seed ^ 9) + 0.5).clamp(0.0, 1.0);
+                let g = 1.0 + 0.12 * nc.fbm2(u, v, 0.05, 4, fp, seed);
+                let dirt = 1.0 - 0.25 * (nc.fbm2(u, v, 0.3, 3, fp, seed ^ 9) + 0.5).clamp(0.0, 1.0);
                 scale(b, g * dirt)
             }
             Texture::Strands { pitch_m } => {
@@ -226,14 +248,14 @@ impl Material {
                 let w = band_weight(pitch_m, fp);
                 let round = 0.55 + 0.5 * (std::f32::consts::PI * f).sin();
                 let strand = w * round + (1.0 - w) * 0.87;
-                let grime = 1.0 + 0.5 * fbm2(u * 0.3, v, 0.15, 5, fp, seed);
+                let grime = 1.0 + 0.5 * nc.fbm2(u * 0.3, v, 0.15, 5, fp, seed);
                 scale(b, strand * grime)
             }
             Texture::Hazard { pitch_m } => {
                 let f = fract01((u + v) / pitch_m);
                 let t = aa_step(0.5, f, fp / pitch_m) * (1.0 - aa_step(0.98, f, fp / pitch_m));
                 let w = band_weight(pitch_m, fp);
-                let wear = 1.0 + 0.3 * fbm2(u, v, 0.05, 4, fp, seed);
+                let wear = 1.0 + 0.3 * nc.fbm2(u, v, 0.05, 4, fp, seed);
                 scale(mix(b, a, w * t + (1.0 - w) * 0.5), wear)
             }
             Texture::Rubber { pitch_m } => {
@@ -283,20 +305,41 @@ fn mix(a: [f32; 3], b: [f32; 3], t: f32) -> [f32; 3] {
 }
 
 const RUST_RGB: [f32; 3] = [0.23, 0.09, 0.035];
+/// Streak profiles `exp(x)` with `x` below minus this are no streak.
+const STREAK_MIN_EXPONENT: f32 = 9.0;
+/// Wavelength of the noise perturbing paint-chip outlines (m).
+const CHIP_OUTLINE_M: f32 = 0.0012;
 
-fn painted(b: [f32; 3], u: f32, v: f32, fp: f32, seed: u32, grime: f32, rust: f32) -> [f32; 3] {
-    let g = 1.0 + 2.0 * grime * fbm2(u, v, 0.5, 3, fp, seed);
+// Texture parameters are plain scalars next to the memo; a struct would only rename them.
+#[allow(clippy::too_many_arguments)]
+fn painted(
+    nc: &mut NoiseCache,
+    b: [f32; 3],
+    u: f32,
+    v: f32,
+    fp: f32,
+    seed: u32,
+    grime: f32,
+    rust: f32,
+) -> [f32; 3] {
+    let g = 1.0 + 2.0 * grime * nc.fbm2(u, v, 0.5, 3, fp, seed);
     let mut c = scale(b, g);
     if rust > 0.0 {
         // Stains stretched vertically (run-off), threshold on fbm; dark rims give corners.
-        let s = fbm2(u * 1.6, v * 0.6, 0.06, 5, fp, seed ^ 0xabc) + 0.5;
+        let s = nc.fbm2(u * 1.6, v * 0.6, 0.06, 5, fp, seed ^ 0xabc) + 0.5;
         let th = 0.5 + 0.3 * (1.0 - rust);
         let inside = aa_step(th, s, 0.02 + fp * 3.0);
         let rim = (1.0 - ((s - th).abs() / 0.015)).clamp(0.0, 1.0) * band_weight(0.004, fp);
         let fine = 0.75 + 0.5 * value2(u / 0.003, v / 0.003, seed) * band_weight(0.003, fp);
         c = mix(c, scale(RUST_RGB, fine), inside);
         c = scale(c, 1.0 - 0.45 * rim);
-        c = mix(c, scale(RUST_RGB, 0.7), chips(u, v, fp, seed ^ 0x77, rust));
+        c = mix(
+            c,
+            scale(RUST_RGB, 0.7),
+            chips(nc, u, v, fp, seed ^ 0x77, rust, || {
+                value2(u / CHIP_OUTLINE_M, v / CHIP_OUTLINE_M, seed ^ 0x77 ^ 0x9999)
+            }),
+        );
     }
     c
 }
@@ -304,46 +347,77 @@ fn painted(b: [f32; 3], u: f32, v: f32, fp: f32, seed: u32, grime: f32, rust: f3
 /// Coverage (0..1) of paint chips: 2-6 mm cellular flakes clustered where a low-frequency
 /// mask is high, `amount` in 0..1 scaling their density (corner-rich detail at the wrist
 /// working distance).
-fn chips(u: f32, v: f32, fp: f32, seed: u32, amount: f32) -> f32 {
+/// `outline_noise` supplies `value2(u / 1.2 mm, v / 1.2 mm, seed ^ 0x9999)` (called only
+/// inside a chip; a caller may hand over a value it computed in a batch).
+fn chips(
+    nc: &mut NoiseCache,
+    u: f32,
+    v: f32,
+    fp: f32,
+    seed: u32,
+    amount: f32,
+    outline_noise: impl FnOnce() -> f32,
+) -> f32 {
     let cell = 0.005;
     let w = band_weight(cell, fp);
     if w <= 0.0 || amount <= 0.0 {
         return 0.0;
     }
-    let mask = ((fbm2(u, v, 0.12, 2, fp, seed) + 0.5 - 0.5) * 5.0).clamp(0.0, 1.0) * amount;
+    let mask = ((nc.fbm2(u, v, 0.12, 2, fp, seed) + 0.5 - 0.5) * 5.0).clamp(0.0, 1.0) * amount;
     if mask <= 0.0 {
         return 0.0;
     }
-    let c = cellular2(u / cell, v / cell, seed ^ 0x1234);
+    let c = nc.cellular2(u / cell, v / cell, seed ^ 0x1234);
     if unit_f32(c.id) > mask {
         return 0.0;
     }
     // Irregular outline: the cell distance perturbed by fine value noise.
     let radius = 0.2 + 0.3 * unit_f32(hash_u32(c.id));
-    let wobble =
-        0.5 * (value2(u / 0.0012, v / 0.0012, seed ^ 0x9999) - 0.5) * band_weight(0.0012, fp);
+    let wobble = 0.5 * (outline_noise() - 0.5) * band_weight(0.0012, fp);
     w * 0.85 * (1.0 - aa_step(radius, c.f1 + wobble, fp / cell))
 }
 
-fn gravel(b: [f32; 3], a: [f32; 3], u: f32, v: f32, fp: f32, seed: u32, stone_m: f32) -> [f32; 3] {
+// Texture parameters are plain scalars next to the memo; a struct would only rename them.
+#[allow(clippy::too_many_arguments)]
+fn gravel(
+    nc: &mut NoiseCache,
+    b: [f32; 3],
+    a: [f32; 3],
+    u: f32,
+    v: f32,
+    fp: f32,
+    seed: u32,
+    stone_m: f32,
+) -> [f32; 3] {
     let w = band_weight(stone_m, fp);
     let mean = scale(mix(b, a, 0.5), 0.85);
     if w <= 0.0 {
-        let t = 1.0 + 0.3 * fbm2(u, v, 1.5, 3, fp, seed);
+        let t = 1.0 + 0.3 * nc.fbm2(u, v, 1.5, 3, fp, seed);
         return scale(mean, t);
     }
-    let c = cellular2(u / stone_m, v / stone_m, seed);
+    let c = nc.cellular2(u / stone_m, v / stone_m, seed);
     let h = c.id;
     let tone = 0.6 + 0.8 * unit_f32(hash_u32(h));
     let stone = scale(mix(b, a, unit_f32(h)), tone);
     let gap = 1.0 - aa_step(0.1, c.f2 - c.f1, fp / stone_m);
-    let speck = 1.0 + 0.4 * fbm2(u, v, stone_m * 0.3, 3, fp, seed ^ 3);
+    let speck = 1.0 + 0.4 * nc.fbm2(u, v, stone_m * 0.3, 3, fp, seed ^ 3);
     let detail = scale(mix(stone, scale(stone, 0.25), gap), speck);
-    let large = 1.0 + 0.25 * fbm2(u, v, 1.5, 3, fp, seed ^ 5);
+    let large = 1.0 + 0.25 * nc.fbm2(u, v, 1.5, 3, fp, seed ^ 5);
     scale(mix(mean, detail, w), large)
 }
 
-fn bolted(b: [f32; 3], u: f32, v: f32, fp: f32, seed: u32, pitch: f32, r: f32) -> [f32; 3] {
+// Texture parameters are plain scalars next to the memo; a struct would only rename them.
+#[allow(clippy::too_many_arguments)]
+fn bolted(
+    nc: &mut NoiseCache,
+    b: [f32; 3],
+    u: f32,
+    v: f32,
+    fp: f32,
+    seed: u32,
+    pitch: f32,
+    r: f32,
+) -> [f32; 3] {
     let wp = pitch * 5.0;
     let hp = pitch * 4.0;
     let (pi, pj) = ((u / wp).floor() as i32, (v / hp).floor() as i32);
@@ -365,38 +439,60 @@ fn bolted(b: [f32; 3], u: f32, v: f32, fp: f32, seed: u32, pitch: f32, r: f32) -
     let d2 = ((pu - c2.0) * (pu - c2.0) + (pv - c2.1) * (pv - c2.1)).sqrt();
     let (bc, d) = if d1 < d2 { (c1, d1) } else { (c2, d2) };
     let (du, dv) = (pu - bc.0, pv - bc.1);
+    // Every per-pixel value-noise lookup of the panel in one 4-lane batch: the two octaves
+    // of the 12 mm grime, the streak modulation and the chip outline (each lane equals its
+    // own `value2`, so this is only faster).
+    let grime = FbmPlan::new(u, v, 0.012, 2, fp, seed ^ 2);
+    let chip_seed = seed ^ 0x3c3c;
+    let mut lanes = grime;
+    lanes.x[2] = u / 0.004;
+    lanes.y[2] = v / 0.02;
+    lanes.seed[2] = seed;
+    lanes.x[3] = u / CHIP_OUTLINE_M;
+    lanes.y[3] = v / CHIP_OUTLINE_M;
+    lanes.seed[3] = chip_seed ^ 0x9999;
+    let noise = value2_lanes(lanes.x, lanes.y, lanes.seed);
     let mut k = tone
         * seam
-        * (1.0
-            + 0.12 * fbm2(u, v, 0.3, 3, fp, seed ^ 1)
-            + 0.16 * fbm2(u, v, 0.012, 2, fp, seed ^ 2));
+        * (1.0 + 0.12 * nc.fbm2(u, v, 0.3, 3, fp, seed ^ 1) + 0.16 * grime.finish(noise));
     let wb = band_weight(2.0 * r, fp);
     // Rust streaks run down (-v) from the top-row bolts and from the side-column bolts above
-    // the point; each bolt bleeds with its own strength.
-    let streak = |du: f32, dv: f32, id: i32| {
+    // the point; each bolt bleeds with its own strength `s_b` and profile
+    // `exp(-|du| / 0.6 r + dv / 14 r)`, modulated by one streaky noise
+    // `n = 0.6 + 0.8 value2(u / 4 mm, v / 20 mm)`. Since `n > 0`, the stronger streak is
+    // picked before multiplying by `n` (`max(a n, b n) = max(a, b) n`) and `n` is evaluated
+    // only where a streak reaches; a profile below `e^-9` (1e-4: under a thousandth of a grey
+    // level once mixed) is no streak, and none is drawn where bolts are below the band limit
+    // (`wb = 0`).
+    let streak = |du: f32, dv: f32, id: &dyn Fn() -> i32| {
         if dv >= 0.0 || du.abs() > 4.0 * r || dv < -60.0 * r {
             return 0.0;
         }
-        let strength = unit_f32(hash2(id, pi.wrapping_mul(131) ^ pj, seed ^ 0x5151));
-        strength
-            * (-(du.abs() / (0.6 * r))).exp()
-            * (dv / (14.0 * r)).exp()
-            * (0.6 + 0.8 * value2(u / 0.004, v / 0.02, seed))
+        let exponent = dv / (14.0 * r) - du.abs() / (0.6 * r);
+        if exponent < -STREAK_MIN_EXPONENT {
+            return 0.0;
+        }
+        unit_f32(hash2(id(), pi.wrapping_mul(131) ^ pj, seed ^ 0x5151)) * exponent.exp()
     };
-    let top_u = snap(pu, wp);
-    let above = (margin + ((pv - margin) / pitch).ceil() * pitch).min(hp - margin);
-    let s1 = streak(pu - top_u, pv - (hp - margin), (top_u / pitch) as i32);
-    let s2 = streak(
-        pu - col_u,
-        pv - above,
-        1000 + (above / pitch) as i32 + (col_u / pitch) as i32 * 7,
-    );
-    let chip = chips(u, v, fp, seed ^ 0x3c3c, 0.5);
-    let mut c = mix(
-        scale(b, k),
-        RUST_RGB,
-        (0.7 * s1.max(s2)).clamp(0.0, 1.0) * wb,
-    );
+    let rust_t = if wb > 0.0 {
+        let top_u = snap(pu, wp);
+        let above = (margin + ((pv - margin) / pitch).ceil() * pitch).min(hp - margin);
+        let s1 = streak(pu - top_u, pv - (hp - margin), &|| (top_u / pitch) as i32);
+        let s2 = streak(pu - col_u, pv - above, &|| {
+            1000 + (above / pitch) as i32 + (col_u / pitch) as i32 * 7
+        });
+        let s = s1.max(s2);
+        let s = if s > 0.0 {
+            s * (0.6 + 0.8 * noise[2])
+        } else {
+            s
+        };
+        (0.7 * s).clamp(0.0, 1.0) * wb
+    } else {
+        0.0
+    };
+    let chip = chips(nc, u, v, fp, chip_seed, 0.5, || noise[3]);
+    let mut c = mix(scale(b, k), RUST_RGB, rust_t);
     c = mix(c, [0.07, 0.07, 0.065], chip);
     if d < 1.4 * r {
         // Washer ring, then a domed head lit from the upper left.
@@ -411,7 +507,18 @@ fn bolted(b: [f32; 3], u: f32, v: f32, fp: f32, seed: u32, pitch: f32, r: f32) -
     c
 }
 
-fn label(b: [f32; 3], a: [f32; 3], u: f32, v: f32, fp: f32, seed: u32, glyph: f32) -> [f32; 3] {
+// Texture parameters are plain scalars next to the memo; a struct would only rename them.
+#[allow(clippy::too_many_arguments)]
+fn label(
+    nc: &mut NoiseCache,
+    b: [f32; 3],
+    a: [f32; 3],
+    u: f32,
+    v: f32,
+    fp: f32,
+    seed: u32,
+    glyph: f32,
+) -> [f32; 3] {
     let row_h = glyph * 1.6;
     let cell_w = glyph * 0.75;
     let row = (v / row_h).floor() as i32;
@@ -424,7 +531,7 @@ fn label(b: [f32; 3], a: [f32; 3], u: f32, v: f32, fp: f32, seed: u32, glyph: f3
     let gh = hash2(col, row, seed ^ 0xfeed);
     let space = gh.is_multiple_of(6);
     let w = band_weight(glyph * 0.2, fp);
-    let base_tone = 1.0 + 0.08 * fbm2(u, v, 0.1, 3, fp, seed);
+    let base_tone = 1.0 + 0.08 * nc.fbm2(u, v, 0.1, 3, fp, seed);
     let plate = scale(b, base_tone);
     if blank_row || space || col < 1 || col > len {
         return plate;
