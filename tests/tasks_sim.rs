@@ -1,0 +1,143 @@
+//! End to end (issue 12): the `task` stage hangs and removes the rod in the simulator, the
+//! independent judge (`rodlog check task`) confirms it with the simulator's truth, the runs
+//! replay byte for byte, and the judge catches what is unsafe (a colliding command, commands
+//! in high wind) while a windy start is refused without a single command.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn rodlog(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_rodlog"))
+        .args(args)
+        .output()
+        .expect("rodlog runs")
+}
+
+fn scenario(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("recordings/scenarios")
+        .join(format!("{name}.toml"))
+        .display()
+        .to_string()
+}
+
+fn record(name: &str, out: &Path, sets: &[&str]) {
+    let mut args = vec![
+        "record".to_owned(),
+        "--scenario".to_owned(),
+        scenario(name),
+        "--out".to_owned(),
+        out.display().to_string(),
+    ];
+    for s in sets {
+        args.push("--set".to_owned());
+        args.push((*s).to_owned());
+    }
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let run = rodlog(&args);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+}
+
+fn judge(rec: &Path) -> (bool, serde_json::Value) {
+    let out = rodlog(&["check", "task", rec.to_str().expect("utf-8"), "--json"]);
+    let v = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
+        panic!(
+            "judge JSON: {e}\n{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        )
+    });
+    (out.status.success(), v)
+}
+
+/// A quick, well-lit, unbumped run with the calibration left as it is.
+const QUICK: [&str; 5] = [
+    "task.self_maintenance=false",
+    "bump.rot_deg=0",
+    "bump.trans_mm=0",
+    "camera.scale=0.25",
+    "panoramic.scale=0.5",
+];
+
+#[test]
+fn the_rod_is_hung_and_removed_safely_and_both_runs_replay_identically() {
+    let dir = tempfile::tempdir().expect("tmp");
+    for task in ["hang", "remove"] {
+        let rec: PathBuf = dir.path().join(format!("{task}.mcap"));
+        record(task, &rec, &QUICK);
+        let (ok, v) = judge(&rec);
+        assert!(ok, "{v}");
+        assert_eq!(v["task"], task, "{v}");
+        assert_eq!(v["outcome"], "done", "{v}");
+        assert_eq!(v["success"], true, "{v}");
+        assert_eq!(v["unsafe_commands"].as_array().map(Vec::len), Some(0), "{v}");
+        assert!(v["commands"].as_u64().unwrap_or(0) > 8, "{v}");
+        assert!(v["operation_s"].as_f64().unwrap_or(f64::INFINITY) < 300.0, "{v}");
+        if task == "hang" {
+            assert_eq!(v["rod_state"], "clamped", "{v}");
+            let fraction = v["hook"]["window_fraction"].as_f64().unwrap_or(f64::NAN);
+            assert!(fraction < 0.5, "hook at {fraction} of its window: {v}");
+        } else {
+            assert_eq!(v["rod_state"], "on_rack", "{v}");
+        }
+        let check = rodlog(&["replay", rec.to_str().expect("utf-8"), "--check"]);
+        assert!(
+            check.status.success(),
+            "{task}: {}{}",
+            String::from_utf8_lossy(&check.stdout),
+            String::from_utf8_lossy(&check.stderr)
+        );
+    }
+}
+
+#[test]
+fn a_windy_start_is_refused_without_a_command() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let rec = dir.path().join("windy.mcap");
+    let mut sets = QUICK.to_vec();
+    sets.push("wind.mean_mps=3.5");
+    record("hang", &rec, &sets);
+    let (ok, v) = judge(&rec);
+    assert!(ok, "{v}");
+    assert_eq!(v["outcome"], "refused", "{v}");
+    assert_eq!(v["reason_code"], "wind_above_limit", "{v}");
+    assert_eq!(v["commands"], 0, "{v}");
+    let log = rodlog(&["log", rec.to_str().expect("utf-8"), "--level", "warn"]);
+    let text = String::from_utf8_lossy(&log.stdout);
+    assert!(text.contains("wind_above_limit"), "{text}");
+}
+
+#[test]
+fn the_judge_catches_a_colliding_command_and_commands_in_high_wind() {
+    let dir = tempfile::tempdir().expect("tmp");
+    // The forearm hanging beside the lowered platform hits the chassis; the wind is 3 m/s.
+    let text = "name = \"unsafe\"\nseed = 3\nduration_s = 6.0\nhour = 11.0\ntask = \"none\"\n\n\
+                [wind]\nmean_mps = 3.0\n\n[camera]\nscale = 0.1\n\n[panoramic]\nperiod_s = 0.0\n\n\
+                [[command]]\nt_s = 2.0\nkind = \"joints\"\nvalues = [0.0, -1.5707963, 1.5707963, 0.0, 0.0, 0.0]\n\n\
+                [[command]]\nt_s = 4.0\nkind = \"capture\"\n";
+    let file = dir.path().join("unsafe.toml");
+    std::fs::write(&file, text).expect("write");
+    let rec = dir.path().join("unsafe.mcap");
+    let run = rodlog(&[
+        "record",
+        "--scenario",
+        file.to_str().expect("utf-8"),
+        "--out",
+        rec.to_str().expect("utf-8"),
+    ]);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let (ok, v) = judge(&rec);
+    assert!(!ok, "the judge passed an unsafe run: {v}");
+    let unsafe_commands = v["unsafe_commands"].as_array().expect("list");
+    assert_eq!(unsafe_commands.len(), 2, "{v}");
+    let reasons: Vec<&str> = unsafe_commands
+        .iter()
+        .filter_map(|u| u["reason"].as_str())
+        .collect();
+    assert!(reasons[0].contains("collision") && reasons[0].contains("chassis"), "{reasons:?}");
+    assert!(reasons.iter().all(|r| r.contains("wind")), "{reasons:?}");
+}
