@@ -21,6 +21,8 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// The simulator does the whole job once: self-calibrate, hang, remove (DIR/demo.mcap, DIR/demo.rrd, summary).
+    Demo(cmd::demo::DemoArgs),
     /// Summarise a recording: channels, time span, chunks, compression, metadata, recovery.
     Info(cmd::info::InfoArgs),
     /// Run a scenario through the pipeline and record it (MCAP).
@@ -47,6 +49,7 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Demo(args) => cmd::demo::run(&args),
         Command::Info(args) => cmd::info::run(&args),
         Command::Record(args) => cmd::record::run(&args),
         Command::Replay(args) => cmd::replay::run(&args),

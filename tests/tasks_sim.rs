@@ -74,9 +74,16 @@ fn the_rod_is_hung_and_removed_safely_and_both_runs_replay_identically() {
         assert_eq!(v["task"], task, "{v}");
         assert_eq!(v["outcome"], "done", "{v}");
         assert_eq!(v["success"], true, "{v}");
-        assert_eq!(v["unsafe_commands"].as_array().map(Vec::len), Some(0), "{v}");
+        assert_eq!(
+            v["unsafe_commands"].as_array().map(Vec::len),
+            Some(0),
+            "{v}"
+        );
         assert!(v["commands"].as_u64().unwrap_or(0) > 8, "{v}");
-        assert!(v["operation_s"].as_f64().unwrap_or(f64::INFINITY) < 300.0, "{v}");
+        assert!(
+            v["operation_s"].as_f64().unwrap_or(f64::INFINITY) < 300.0,
+            "{v}"
+        );
         if task == "hang" {
             assert_eq!(v["rod_state"], "clamped", "{v}");
             let fraction = v["hook"]["window_fraction"].as_f64().unwrap_or(f64::NAN);
@@ -129,7 +136,11 @@ fn the_judge_catches_a_colliding_command_and_commands_in_high_wind() {
         "--out",
         rec.to_str().expect("utf-8"),
     ]);
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
     let (ok, v) = judge(&rec);
     assert!(!ok, "the judge passed an unsafe run: {v}");
     let unsafe_commands = v["unsafe_commands"].as_array().expect("list");
@@ -138,6 +149,9 @@ fn the_judge_catches_a_colliding_command_and_commands_in_high_wind() {
         .iter()
         .filter_map(|u| u["reason"].as_str())
         .collect();
-    assert!(reasons[0].contains("collision") && reasons[0].contains("chassis"), "{reasons:?}");
+    assert!(
+        reasons[0].contains("collision") && reasons[0].contains("chassis"),
+        "{reasons:?}"
+    );
     assert!(reasons.iter().all(|r| r.contains("wind")), "{reasons:?}");
 }

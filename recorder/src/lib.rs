@@ -21,6 +21,7 @@ pub use runner::{Envelope, Popped, Runner, RunnerError, Source};
 pub use scenario::{Params, Scenario, ScenarioError};
 pub use scheduler::{Scheduler, SchedulerError, SinkFanout, is_command_topic};
 pub use session::{
-    RecordError, RecordOptions, RecordSummary, RecordingHeader, record, record_with_sinks,
+    RecordError, RecordOptions, RecordSummary, RecordingHeader, StopCondition, record,
+    record_with_sinks,
 };
 pub use sink::{Channel, McapStreamSink, MemorySink, Sink, SinkError, SinkMessage};

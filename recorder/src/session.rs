@@ -66,6 +66,31 @@ pub struct RecordOptions {
     pub realtime: bool,
     /// Size of the rayon pool stages may use (None: rayon's default).
     pub threads: Option<usize>,
+    /// End the run early when a message says it is over (as-fast-as-possible runs only).
+    pub stop: Option<StopCondition>,
+}
+
+/// Ends a recording before its duration: once a message on `topic` satisfies `is_end`,
+/// the run goes on for `grace` of robot time (the last outputs, the robot settling) and
+/// stops at the next robot-second boundary. The end is a function of the message stream,
+/// so the recording stays deterministic.
+#[derive(Clone)]
+pub struct StopCondition {
+    /// Topic watched.
+    pub topic: String,
+    /// Whether a message on it ends the run.
+    pub is_end: std::sync::Arc<dyn Fn(&msgs::Msg) -> bool + Send + Sync>,
+    /// Robot time kept after it.
+    pub grace: msgs::RobotDuration,
+}
+
+impl std::fmt::Debug for StopCondition {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("StopCondition")
+            .field("topic", &self.topic)
+            .field("grace", &self.grace)
+            .finish_non_exhaustive()
+    }
 }
 
 /// What a recording holds.
@@ -183,16 +208,25 @@ pub fn record_with_sinks<W: World + Send + 'static>(
     }
     let mut scheduler = scheduler;
     let stop = crate::live::ctrl_c_flag();
+    let stop_condition = options.stop.clone();
     let run = |scheduler: &mut Scheduler<W>, fanout: &mut SinkFanout| {
         // One robot second at a time, so Ctrl-C stops at a second boundary.
         let mut t = RobotTime::ZERO;
+        let mut end_at: Option<RobotTime> = None;
         loop {
             t = (t + FLUSH_PERIOD).min(end);
             scheduler.advance(t, &mut |p: Popped| {
+                if end_at.is_none()
+                    && let Some(c) = &stop_condition
+                    && p.envelope.topic() == c.topic
+                    && p.envelope.msg.as_ref().is_some_and(|m| (c.is_end)(m))
+                {
+                    end_at = Some(p.envelope.log_time + c.grace);
+                }
                 fanout.write_envelope(&p.envelope)?;
                 Ok(())
             })?;
-            if t >= end {
+            if t >= end || end_at.is_some_and(|e| t >= e) {
                 return Ok(false);
             }
             if stop
@@ -284,6 +318,7 @@ mod tests {
             fail_at: RobotTime::from_millis(1500),
         };
         let options = RecordOptions {
+            stop: None,
             out: out.clone(),
             sink: SinkOptions::default(),
             realtime: false,

@@ -2,6 +2,7 @@
 
 pub mod calib;
 pub mod check;
+pub mod demo;
 pub mod experiment;
 pub mod import;
 pub mod info;

@@ -56,6 +56,41 @@ pub struct RecordArgs {
     /// Also draw the run in Rerun: write this .rrd beside the MCAP (the viz sink).
     #[arg(long, value_name = "REC.rrd")]
     pub viz: Option<PathBuf>,
+    /// End the recording a few seconds after the scenario's task has ended (done, refused
+    /// or failed) instead of at its duration.
+    #[arg(long)]
+    pub until_done: bool,
+}
+
+/// Robot time a recording goes on after its task ended ([`task_end`]).
+pub const TASK_END_GRACE: msgs::RobotDuration = msgs::RobotDuration::from_secs(5);
+
+/// The end of the scenario's task as a [`recorder::StopCondition`]: the task stage's final
+/// `/task/event` (a refusal or failure of any phase; DONE of the last phase: `remove` for the
+/// demo). `None` when the scenario has no task.
+///
+/// # Errors
+/// A mistyped `task` parameter.
+pub fn task_end(params: &Params) -> anyhow::Result<Option<recorder::StopCondition>> {
+    use msgs::rodlog_msgs::TaskEvent;
+    let task = params.str_or("task", "none")?;
+    let last_phase = match task.as_str() {
+        "hang" | "remove" | "check" => task.clone(),
+        "demo" => "remove".to_owned(),
+        _ => return Ok(None),
+    };
+    Ok(Some(recorder::StopCondition {
+        topic: msgs::topics::TASK_EVENT.to_owned(),
+        is_end: std::sync::Arc::new(move |m: &msgs::Msg| {
+            m.get::<TaskEvent>().is_some_and(|e| {
+                e.task != "calibration"
+                    && (e.kind == TaskEvent::REFUSED
+                        || e.kind == TaskEvent::FAILED
+                        || (e.kind == TaskEvent::DONE && e.task == last_phase))
+            })
+        }),
+        grace: TASK_END_GRACE,
+    }))
 }
 
 /// Directories searched for scenario names: `./recordings/scenarios`, then the source tree's.
@@ -463,6 +498,11 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
         },
         realtime: args.realtime,
         threads: args.threads,
+        stop: if args.until_done {
+            task_end(&scenario.params)?
+        } else {
+            None
+        },
     };
     let summary = record_scenario(&scenario, &options, extra_sinks)?;
     let mut text = format!(

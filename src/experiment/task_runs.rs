@@ -105,6 +105,7 @@ pub fn run(spec: &RunSpec, dir: &Path, keep: bool) -> Result<RunResult> {
         },
         realtime: false,
         threads: Some(1),
+        stop: crate::cmd::record::task_end(&scenario.params)?,
     };
     let started = std::time::Instant::now();
     crate::cmd::record::record_scenario(&scenario, &options, Vec::new())?;

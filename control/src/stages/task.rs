@@ -98,10 +98,16 @@ pub const ARRIVED_RAD: f64 = 2e-3;
 pub const AT_REST_RAD_S: f64 = 1e-3;
 /// The lift has arrived within this (m) and at rest.
 pub const LIFT_ARRIVED_M: f64 = 2e-3;
-/// The base has arrived within this (m) ...
+/// The base has arrived within this (m) and is still ([`BASE_STILL_M`]) ...
 pub const BASE_ARRIVED_M: f64 = 0.02;
 /// ... and this (rad).
 pub const BASE_ARRIVED_RAD: f64 = 0.02;
+/// The base is still when consecutive odometry samples differ by less than this (m) ...
+pub const BASE_STILL_M: f64 = 1e-4;
+/// ... and this (rad) ...
+pub const BASE_STILL_RAD: f64 = 1e-5;
+/// ... for this long.
+pub const BASE_STILL_FOR: RobotDuration = RobotDuration::from_millis(300);
 /// The clamp is at rest below this speed (m/s) ...
 pub const CLAMP_REST_M_S: f64 = 1e-4;
 /// ... for this long.
@@ -126,6 +132,10 @@ pub enum TaskKind {
     Hang,
     /// Remove it from the wire and put it back in the rack.
     Remove,
+    /// The demo: hang the rod, then remove it again, in one run (one self-maintenance at the
+    /// start). Its events carry the task of the phase (`hang`, then `remove`), each with its
+    /// own `started` and end.
+    Demo,
     /// Only check the hand-eye calibration (no recalibration, no operation): the drift
     /// check's verdict ends the task (`reason_code` = `consistent`, `drifted` or
     /// `cannot_tell`). For the maintenance experiment and for a check on demand.
@@ -139,6 +149,7 @@ impl TaskKind {
         match self {
             Self::Hang => "hang",
             Self::Remove => "remove",
+            Self::Demo => "demo",
             Self::Check => "check",
         }
     }
@@ -150,6 +161,7 @@ impl TaskKind {
             "hang" => Some(Self::Hang),
             "remove" => Some(Self::Remove),
             "check" => Some(Self::Check),
+            "demo" => Some(Self::Demo),
             _ => None,
         }
     }
@@ -460,6 +472,8 @@ pub struct TaskStage {
     clamp_speed_m_s: f64,
     clamp_rest_since: Option<RobotTime>,
     odometry: Option<(RobotTime, BasePose)>,
+    odometry_stamp_ns: Option<u64>,
+    base_still_since: Option<RobotTime>,
     step: Step,
     queue: Vec<Action>,
     running: Option<Running>,
@@ -480,6 +494,8 @@ pub struct TaskStage {
     pending: Vec<(String, Msg)>,
     done_reason: &'static str,
     done_text: String,
+    /// The operation under way: the configured task, or hang then remove for the demo.
+    phase: TaskKind,
     now: RobotTime,
 }
 
@@ -514,8 +530,13 @@ impl TaskStage {
             ..ArmCollisionModel::nominal()
         };
         let rod = match config.kind {
-            TaskKind::Hang => Rod::OnRack,
+            TaskKind::Hang | TaskKind::Demo => Rod::OnRack,
             TaskKind::Remove | TaskKind::Check => Rod::Unknown,
+        };
+        let phase = if config.kind == TaskKind::Demo {
+            TaskKind::Hang
+        } else {
+            config.kind
         };
         Ok(Self {
             gate: WindGate::new(config.wind),
@@ -533,6 +554,8 @@ impl TaskStage {
             clamp_speed_m_s: 0.0,
             clamp_rest_since: None,
             odometry: None,
+            odometry_stamp_ns: None,
+            base_still_since: None,
             step: Step::Waiting,
             queue: Vec::new(),
             running: None,
@@ -553,6 +576,7 @@ impl TaskStage {
             pending: Vec::new(),
             done_reason: "done",
             done_text: String::new(),
+            phase,
             now: RobotTime::ZERO,
         })
     }
@@ -584,7 +608,7 @@ impl TaskStage {
             TaskEvent::FAILED => Log::ERROR,
             _ => Log::INFO,
         };
-        let task = self.config.kind.name();
+        let task = self.phase.name();
         let log = Log {
             stamp: self.stamp(),
             level,
@@ -956,7 +980,7 @@ impl TaskStage {
     fn next_step(&self, step: Step) -> Step {
         use Step::*;
         let maintenance = self.config.self_maintenance;
-        match (self.config.kind, step) {
+        match (self.phase, step) {
             (_, Waiting) => Begin,
             (_, Begin) => Drive,
             (_, Drive) => Stow,
@@ -975,6 +999,8 @@ impl TaskStage {
             (TaskKind::Hang, Approach) => CloseClamp,
             (TaskKind::Hang, CloseClamp) => Release,
             (TaskKind::Hang, Release) => Retreat,
+            // The demo: the hang's retreat hands over to the remove.
+            (TaskKind::Hang, Retreat) if self.config.kind == TaskKind::Demo => LookHandle,
             (TaskKind::Remove, LookHandle) => CaptureHandle,
             (TaskKind::Remove, CaptureHandle) => GraspHandle,
             (TaskKind::Remove, GraspHandle) => OpenClamp,
@@ -1507,6 +1533,27 @@ impl TaskStage {
 
     /// Judges the finished step: `Ok(next)` or a stop.
     fn finish_step(&mut self, step: Step) -> Result<Step, Stop> {
+        if step == Step::Retreat
+            && self.config.kind == TaskKind::Demo
+            && self.phase == TaskKind::Hang
+        {
+            // The demo's hang is done: report it and start the remove from here.
+            let next = self.next_step(step);
+            let text = format!("hang done in {:.1} s", self.elapsed_s());
+            let out = self.event(TaskEvent::DONE, Step::Finished.name(), "done", text);
+            self.pending.extend(out);
+            self.phase = TaskKind::Remove;
+            self.began = Some(self.now);
+            self.attempts = 0;
+            let out = self.event(
+                TaskEvent::INFO,
+                "started",
+                "",
+                "remove started; the rod hangs where the hang left it".to_owned(),
+            );
+            self.pending.extend(out);
+            return Ok(next);
+        }
         match step {
             Step::CheckCalibration | Step::Recalibrate => self.judge_calibration(step),
             Step::Panoramic => self.judge_panoramic(),
@@ -2015,11 +2062,7 @@ impl TaskStage {
     fn enter(&mut self, step: Step) {
         self.step = step;
         if step == Step::Finished {
-            let mut text = format!(
-                "{} done in {:.1} s",
-                self.config.kind.name(),
-                self.elapsed_s()
-            );
+            let mut text = format!("{} done in {:.1} s", self.phase.name(), self.elapsed_s());
             if !self.done_text.is_empty() {
                 text = format!("{text}: {}", self.done_text);
             }
@@ -2076,10 +2119,14 @@ impl TaskStage {
                 self.lift_m.is_some_and(|l| (l - h).abs() < LIFT_ARRIVED_M)
                     && self.lift_speed_m_s.abs() < 1e-3
             }
-            Until::Base(goal) => self.odometry.is_some_and(|(_, p)| {
-                (p.x_m - goal.x_m).hypot(p.y_m - goal.y_m) < BASE_ARRIVED_M
-                    && robot::se3::wrap_to_pi(p.yaw_rad - goal.yaw_rad).abs() < BASE_ARRIVED_RAD
-            }),
+            Until::Base(goal) => {
+                self.odometry.is_some_and(|(_, p)| {
+                    (p.x_m - goal.x_m).hypot(p.y_m - goal.y_m) < BASE_ARRIVED_M
+                        && robot::se3::wrap_to_pi(p.yaw_rad - goal.yaw_rad).abs() < BASE_ARRIVED_RAD
+                }) && self
+                    .base_still_since
+                    .is_some_and(|t| self.now.saturating_duration_since(t) >= BASE_STILL_FOR)
+            }
             Until::ClampRest => {
                 self.now.saturating_duration_since(running.started)
                     >= RobotDuration::from_millis(500)
@@ -2099,7 +2146,7 @@ impl TaskStage {
                 self.began = Some(self.now);
                 let text = format!(
                     "{} started; self-maintenance {}",
-                    self.config.kind.name(),
+                    self.phase.name(),
                     if self.config.self_maintenance {
                         "on"
                     } else {
@@ -2363,8 +2410,22 @@ impl Stage for TaskStage {
         match (topic, msg) {
             (TF, Msg::TfMessage(m)) => {
                 let _rejected = self.tf.insert_message(m, false);
-                if let Ok((_, base_from_map)) = self.tf.lookup_latest(BASE_LINK, MAP) {
-                    self.odometry = Some((log_time, base_pose_of(&base_from_map.inverse())));
+                if let Ok((stamp_ns, base_from_map)) = self.tf.lookup_latest(BASE_LINK, MAP)
+                    && self.odometry_stamp_ns != Some(stamp_ns)
+                {
+                    let pose = base_pose_of(&base_from_map.inverse());
+                    let still = self.odometry.is_some_and(|(_, p)| {
+                        (p.x_m - pose.x_m).hypot(p.y_m - pose.y_m) < BASE_STILL_M
+                            && robot::se3::wrap_to_pi(p.yaw_rad - pose.yaw_rad).abs()
+                                < BASE_STILL_RAD
+                    });
+                    if still {
+                        self.base_still_since.get_or_insert(log_time);
+                    } else {
+                        self.base_still_since = None;
+                    }
+                    self.odometry_stamp_ns = Some(stamp_ns);
+                    self.odometry = Some((log_time, pose));
                 }
             }
             (TF_STATIC, Msg::TfMessage(m)) => {
