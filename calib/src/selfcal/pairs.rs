@@ -86,6 +86,11 @@ pub struct PairMatches {
     /// Pyramid levels `[level_i, level_j]` of the two keypoints of each inlier (their
     /// localisation error grows with `scale_factor^level`).
     pub levels: Vec<[u8; 2]>,
+    /// Per GMS match: consistent with the pair's estimated camera motion (the relative-pose
+    /// RANSAC verdict, [`super::motion::PairMotion::match_inliers`]). All `false` from
+    /// [`match_pair`] and for a pair whose motion could not be estimated; the pipeline fills
+    /// it in.
+    pub motion_inliers: Vec<bool>,
 }
 
 /// The full-resolution position of a keypoint. ORB reports `x_level * s^level` (as OpenCV),
@@ -192,6 +197,7 @@ pub fn match_pair(
             raw_matches: 0,
             coords: Vec::new(),
             levels: Vec::new(),
+            motion_inliers: Vec::new(),
         };
     };
     let scale_factor = params.orb.scale_factor;
@@ -206,7 +212,7 @@ pub fn match_pair(
         &matches,
         &params.gms,
     );
-    let (coords, levels) = matches
+    let (coords, levels): (Vec<[f32; 4]>, Vec<[u8; 2]>) = matches
         .iter()
         .zip(&mask)
         .filter(|(_, k)| **k)
@@ -218,6 +224,7 @@ pub fn match_pair(
             Some(([ax, ay, bx, by], [a.level, b.level]))
         })
         .unzip();
+    let motion_inliers = vec![false; coords.len()];
     PairMatches {
         i,
         j,
@@ -225,5 +232,6 @@ pub fn match_pair(
         raw_matches: matches.len(),
         coords,
         levels,
+        motion_inliers,
     }
 }

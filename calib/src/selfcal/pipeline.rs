@@ -10,7 +10,7 @@ use rayon::prelude::*;
 
 use super::motion::{PairMotion, mono_motion, mono_translation, pair_seed, rgbd_motion};
 use super::pairs::{
-    PairMatches, PairRejection, candidate_pairs, extract_features, hand_motion, match_pair,
+    PairMatches, PairRejection, Refused, candidate_pairs, extract_features, hand_motion, match_pair,
 };
 use super::refine::{Eq15Pair, Eq15Params, Eq15Report, refine_eq15};
 use super::views::{CalibView, validate_views};
@@ -252,20 +252,36 @@ fn used_indices(reports: &[PairReport]) -> Vec<usize> {
         .collect()
 }
 
-/// Hand-eye self-calibration of `views` (module docs of [`super`]): `X = tool0_from_camera`.
+/// Steps 1-3 of the pipeline (module docs of [`super`]) on `views`: their mode, features,
+/// candidate pairs, matches and relative camera motions. Shared by [`self_calibrate`] and
+/// the drift check.
+#[derive(Debug, Clone)]
+pub struct PairMotions {
+    /// RGB-D or mono (from the views).
+    pub mode: Mode,
+    /// ORB keypoints per view.
+    pub features_per_view: Vec<usize>,
+    /// GMS matches of the candidate pairs (hand rotation at least
+    /// [`SelfCalParams::min_pair_rotation_deg`]), in `(i, j)` order; `motion_inliers` not yet
+    /// filled in.
+    pub matches: Vec<PairMatches>,
+    /// The camera motion of each candidate (index = `matches`'), or why there is none.
+    pub estimates: Vec<Result<PairMotion, PairRejection>>,
+    /// The pairs refused for a small hand rotation, with their reason.
+    pub small: Vec<Refused>,
+}
+
+/// Features, candidate pairs, matches and camera motions of `views` ([`PairMotions`]).
 ///
 /// # Errors
 /// [`SelfCalError::TooFewViews`], [`SelfCalError::ImageSize`], [`SelfCalError::DepthSize`],
 /// [`SelfCalError::MixedDepth`], [`SelfCalError::NonFinitePose`],
-/// [`SelfCalError::TooFewFeatures`] (dark/textureless view, with its numbers),
-/// [`SelfCalError::TooFewPairs`] (with the count of each rejection reason),
-/// [`SelfCalError::HandEye`] (degenerate motion: single rotation axis, pure translation,
-/// inconsistent motions, ...), [`SelfCalError::Features`].
-pub fn self_calibrate(
+/// [`SelfCalError::TooFewFeatures`], [`SelfCalError::Features`].
+pub fn pair_motions(
     views: &[CalibView],
     camera: &CameraModel,
     params: &SelfCalParams,
-) -> Result<SelfCalResult, SelfCalError> {
+) -> Result<PairMotions, SelfCalError> {
     let mode = validate_views(views, camera)?;
     let features = extract_features(views, params)?;
     let size = (camera.width as usize, camera.height as usize);
@@ -296,15 +312,67 @@ pub fn self_calibrate(
             }
         })
         .collect();
+    Ok(PairMotions {
+        mode,
+        features_per_view: features.iter().map(|f| f.keypoints.len()).collect(),
+        matches,
+        estimates,
+        small,
+    })
+}
+
+/// The hand-eye motion `B_ij X = X A_ij` of a pair with an estimated camera motion: `B_ij`
+/// from the views' hand poses, `A_ij` from `motion`, and in RGB-D the eye lever arm at the
+/// centroid of its inlier points (their error is mostly a rotation about the camera, see
+/// [`crate::handeye::refine`]). `None` when a view index is out of range.
+pub fn relative_motion(
+    views: &[CalibView],
+    mode: Mode,
+    i: usize,
+    j: usize,
+    motion: &PairMotion,
+) -> Option<RelativeMotion> {
+    let mut rm = RelativeMotion::new(motion.cam_i_from_cam_j, hand_motion(views, i, j)?);
+    if mode == Mode::Rgbd {
+        rm.eye_lever_m = centroid(&motion.points);
+    }
+    Some(rm)
+}
+
+/// Hand-eye self-calibration of `views` (module docs of [`super`]): `X = tool0_from_camera`.
+///
+/// # Errors
+/// [`SelfCalError::TooFewViews`], [`SelfCalError::ImageSize`], [`SelfCalError::DepthSize`],
+/// [`SelfCalError::MixedDepth`], [`SelfCalError::NonFinitePose`],
+/// [`SelfCalError::TooFewFeatures`] (dark/textureless view, with its numbers),
+/// [`SelfCalError::TooFewPairs`] (with the count of each rejection reason),
+/// [`SelfCalError::HandEye`] (degenerate motion: single rotation axis, pure translation,
+/// inconsistent motions, ...), [`SelfCalError::Features`].
+pub fn self_calibrate(
+    views: &[CalibView],
+    camera: &CameraModel,
+    params: &SelfCalParams,
+) -> Result<SelfCalResult, SelfCalError> {
+    let PairMotions {
+        mode,
+        features_per_view,
+        mut matches,
+        estimates,
+        small,
+    } = pair_motions(views, camera, params)?;
+    for (m, est) in matches.iter_mut().zip(&estimates) {
+        if let Ok(pm) = est {
+            m.motion_inliers.clone_from(&pm.match_inliers);
+        }
+    }
 
     // Reports: candidates first (index k = motion k), then the small-rotation pairs.
     let nan = f64::NAN;
-    let mut reports: Vec<PairReport> = Vec::with_capacity(cands.len() + small.len());
-    let mut motions: Vec<RelativeMotion> = Vec::with_capacity(cands.len());
-    let mut points: Vec<Vec<(Point3<f64>, Point3<f64>)>> = Vec::with_capacity(cands.len());
-    let mut sigmas: Vec<Vec<f64>> = Vec::with_capacity(cands.len());
+    let mut reports: Vec<PairReport> = Vec::with_capacity(matches.len() + small.len());
+    let mut motions: Vec<RelativeMotion> = Vec::with_capacity(matches.len());
+    let mut points: Vec<Vec<(Point3<f64>, Point3<f64>)>> = Vec::with_capacity(matches.len());
+    let mut sigmas: Vec<Vec<f64>> = Vec::with_capacity(matches.len());
     for (m, est) in matches.iter().zip(&estimates) {
-        let b = hand_motion(views, m.i, m.j).unwrap_or_else(Isometry3::identity);
         let (a, inliers, pts, sig, rejected) = match est {
             Ok(pm) => (
                 Some(pm.cam_i_from_cam_j),
@@ -315,10 +383,15 @@ pub fn self_calibrate(
             ),
             Err(e) => (None, 0, Vec::new(), Vec::new(), Some(e.clone())),
         };
-        let mut rm = RelativeMotion::new(a.unwrap_or_else(Isometry3::identity), b);
-        if mode == Mode::Rgbd {
-            rm.eye_lever_m = centroid(&pts);
-        }
+        // A pair without a camera motion keeps a placeholder (never used: it is rejected).
+        let rm = est
+            .as_ref()
+            .ok()
+            .and_then(|pm| relative_motion(views, mode, m.i, m.j, pm))
+            .unwrap_or_else(|| {
+                let b = hand_motion(views, m.i, m.j).unwrap_or_else(Isometry3::identity);
+                RelativeMotion::new(Isometry3::identity(), b)
+            });
         motions.push(rm);
         points.push(pts);
         sigmas.push(sig);
@@ -401,7 +474,7 @@ pub fn self_calibrate(
     Ok(SelfCalResult {
         solution,
         mode,
-        features_per_view: features.iter().map(|f| f.keypoints.len()).collect(),
+        features_per_view,
         pairs: reports,
         matches,
         linear_tool0_from_camera: linear,
