@@ -404,3 +404,68 @@ fn selfcal_matches_carry_the_pair_motion_verdict() {
         res.matches.len()
     );
 }
+
+/// Regression (noise experiment, image noise sigma 0.20, mono): 2 of 4 pairs with a camera
+/// motion survived, and their X came back 118 deg / 478 mm from the truth instead of being
+/// refused. The synthetic equivalent: three monocular views where the outer two do not
+/// overlap, so X rests on two pairs (4 residual degrees of freedom): refused as
+/// inconsistent (too little redundancy to judge X), with its numbers, never returned.
+#[test]
+fn selfcal_mono_sigma_020_two_pairs_refused_not_returned() {
+    use calib::selfcal::ConsistencyRule;
+    let cams = [
+        sup::look_at(
+            Point3::new(-0.22, 0.0, 0.45),
+            Point3::new(-0.13, 0.0, 0.0),
+            0.3,
+        ),
+        sup::look_at(
+            Point3::new(0.0, 0.03, 0.47),
+            Point3::new(0.0, 0.0, 0.0),
+            -0.2,
+        ),
+        sup::look_at(
+            Point3::new(0.22, 0.0, 0.45),
+            Point3::new(0.13, 0.02, 0.0),
+            0.1,
+        ),
+    ];
+    let (views, cam) = sup::views(&cams, &sup::true_x(), false);
+    let err = self_calibrate(&views, &cam, &SelfCalParams::default()).expect_err("refused");
+    eprintln!("{err}");
+    let SelfCalError::Inconsistent {
+        mode,
+        rule,
+        pairs_used,
+        dof,
+        ..
+    } = err
+    else {
+        panic!("not an inconsistency refusal: {err}");
+    };
+    assert_eq!(mode, Mode::Mono);
+    assert_eq!((rule, pairs_used, dof), (ConsistencyRule::Redundancy, 2, 4));
+    // What the unchecked pipeline would have returned.
+    let mut unchecked = SelfCalParams::default();
+    unchecked.consistency.min_dof = 0;
+    unchecked.consistency.max_sigma_rot_deg = f64::INFINITY;
+    unchecked.consistency.max_sigma_trans_mm = f64::INFINITY;
+    if let Ok(r) = self_calibrate(&views, &cam, &unchecked) {
+        let (deg, m) = pose_error(&r.solution.tool0_from_camera, &sup::true_x());
+        eprintln!(
+            "unchecked: X {deg:.3} deg / {:.1} mm from the truth, 1-sigma {:.3} deg / {:.1} mm",
+            m * 1e3,
+            r.solution.sigma_rot_deg,
+            r.solution.sigma_trans_mm
+        );
+    }
+    // The same views with depth: 2 pairs leave 6 residual degrees of freedom, also refused.
+    let (rgbd, cam) = sup::views(&cams, &sup::true_x(), true);
+    assert!(matches!(
+        self_calibrate(&rgbd, &cam, &SelfCalParams::default()),
+        Err(SelfCalError::Inconsistent {
+            rule: ConsistencyRule::Redundancy,
+            ..
+        })
+    ));
+}
