@@ -255,19 +255,8 @@ fn selfcal_rgbd_with_hand_and_depth_noise() {
     // noise is ~0.1 mm at 0.5 m growing with z^2.
     let x_true = sup::true_x();
     let (mut views, cam) = sup::views(&sup::camera_poses(16), &x_true, true);
-    let mut state = 12345u64;
-    let mut normal = move || {
-        // Box-Muller on a SplitMix64 stream (seeded: deterministic).
-        let mut next = || {
-            state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = state;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-        };
-        let (u1, u2) = (next().max(1e-300), next());
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-    };
+    let mut normals = sup::Normals::new(12345);
+    let mut normal = move || normals.sample();
     for v in &mut views {
         let dt = Vector3::new(normal(), normal(), normal()) * 0.3e-3;
         let dr = Vector3::new(normal(), normal(), normal()) * 0.03f64.to_radians();

@@ -383,6 +383,12 @@ pub fn normal_equations_x(
     Normal6 { h, g, cost, chi2 }
 }
 
+/// `X <- (exp([d_theta]x) R_X, t_X + d_t)`, the update of the module docs.
+pub fn apply_x_step(x: &Isometry3<f64>, d: &SVector<f64, 6>) -> Isometry3<f64> {
+    let r = rotation_exp(&Vector3::new(d[0], d[1], d[2])) * rot(x);
+    isometry(&r, &(x.translation.vector + Vector3::new(d[3], d[4], d[5])))
+}
+
 fn robust_cost(
     motions: &[RelativeMotion],
     x: &Isometry3<f64>,
@@ -400,9 +406,10 @@ fn robust_cost(
 }
 
 fn apply(x: &Isometry3<f64>, scale: f64, d: &SVector<f64, 7>) -> (Isometry3<f64>, f64) {
-    let r = rotation_exp(&Vector3::new(d[0], d[1], d[2])) * rot(x);
-    let t = x.translation.vector + Vector3::new(d[3], d[4], d[5]);
-    (isometry(&r, &t), scale * d[6].exp())
+    (
+        apply_x_step(x, &d.fixed_rows::<6>(0).into_owned()),
+        scale * d[6].exp(),
+    )
 }
 
 /// Refines `(x0, s0)` (module docs). With automatic residual scales the refinement runs

@@ -68,6 +68,13 @@
 //! mount of [`robot::camera_mount`] until a calibration is accepted), and its refusals on
 //! `/rosout`.
 //!
+//! # Drift check ([`drift`])
+//!
+//! Before operating (issue 12's self-maintenance), [`check_drift`] runs steps 1-3 on a few
+//! views of the check motion ([`CHECK_MOTION`]) and tests the `X` in use against their
+//! AX=XB residuals: Consistent, Drifted (with the estimated change of the mount) or
+//! CannotTell (with the reason), thresholds from the measurement noise.
+//!
 //! # Refusals (never a wrong X)
 //!
 //! An X that its own pairs do not support ([`ConsistencyLimits`]: too few of the pairs with a
@@ -77,6 +84,7 @@
 //! refusals), missing TF or stamps outside its range, depth without a colour image at the
 //! same stamp ([`messages`]). Ground truth (`/sim/...`) is never read.
 
+pub mod drift;
 pub mod messages;
 pub mod motion;
 pub mod pairs;
@@ -86,6 +94,7 @@ pub mod stage;
 pub mod views;
 pub mod yaml;
 
+pub use drift::{CHECK_MOTION, CannotTell, DriftParams, DriftReport, DriftVerdict, check_drift};
 pub use messages::views_from_messages;
 pub use pipeline::{ConsistencyLimits, SelfCalParams, SelfCalResult, self_calibrate};
 pub use stage::{CalibrationStage, CalibrationStageConfig};

@@ -70,6 +70,48 @@ pub enum PairRejection {
     },
 }
 
+/// How many pairs were rejected for each kind of reason (the refusal figures of
+/// [`super::SelfCalError::TooFewPairs`] and the drift check's).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct RejectionCounts {
+    /// Pairs used (no rejection).
+    pub usable: usize,
+    /// [`PairRejection::SmallRotation`].
+    pub small_rotation: usize,
+    /// [`PairRejection::TooFewMatches`].
+    pub too_few_matches: usize,
+    /// The motion estimate failed: [`PairRejection::Motion`],
+    /// [`PairRejection::TooFewDepthPoints`].
+    pub motion_failed: usize,
+    /// Rejected after the motion: [`PairRejection::AngleMismatch`],
+    /// [`PairRejection::NonPositiveScale`], [`PairRejection::Residual`].
+    pub rejected_later: usize,
+}
+
+impl RejectionCounts {
+    /// Counts the rejections of a list of pairs (`None` = used).
+    pub fn of<'a>(rejections: impl IntoIterator<Item = Option<&'a PairRejection>>) -> Self {
+        let mut c = Self::default();
+        for r in rejections {
+            let slot = match r {
+                None => &mut c.usable,
+                Some(PairRejection::SmallRotation { .. }) => &mut c.small_rotation,
+                Some(PairRejection::TooFewMatches { .. }) => &mut c.too_few_matches,
+                Some(PairRejection::Motion { .. } | PairRejection::TooFewDepthPoints { .. }) => {
+                    &mut c.motion_failed
+                }
+                Some(
+                    PairRejection::AngleMismatch
+                    | PairRejection::NonPositiveScale { .. }
+                    | PairRejection::Residual { .. },
+                ) => &mut c.rejected_later,
+            };
+            *slot += 1;
+        }
+        c
+    }
+}
+
 /// GMS matches of one pair in full-size pixels.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PairMatches {

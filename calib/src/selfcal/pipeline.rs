@@ -10,7 +10,8 @@ use rayon::prelude::*;
 
 use super::motion::{PairMotion, mono_motion, mono_translation, pair_seed, rgbd_motion};
 use super::pairs::{
-    PairMatches, PairRejection, Refused, candidate_pairs, extract_features, hand_motion, match_pair,
+    PairMatches, PairRejection, Refused, RejectionCounts, candidate_pairs, extract_features,
+    hand_motion, match_pair,
 };
 use super::refine::{Eq15Pair, Eq15Params, Eq15Report, refine_eq15};
 use super::views::{CalibView, validate_views};
@@ -275,32 +276,15 @@ fn solve_used(
 }
 
 fn too_few_pairs(reports: &[PairReport]) -> SelfCalError {
-    let count = |f: &dyn Fn(&PairRejection) -> bool| {
-        reports
-            .iter()
-            .filter(|r| r.rejected.as_ref().is_some_and(f))
-            .count()
-    };
+    let c = RejectionCounts::of(reports.iter().map(|r| r.rejected.as_ref()));
     SelfCalError::TooFewPairs {
-        usable: reports.iter().filter(|r| r.rejected.is_none()).count(),
+        usable: c.usable,
         candidates: reports.len(),
         need: MIN_PAIRS,
-        too_little_rotation: count(&|r| matches!(r, PairRejection::SmallRotation { .. })),
-        too_few_matches: count(&|r| matches!(r, PairRejection::TooFewMatches { .. })),
-        motion_failed: count(&|r| {
-            matches!(
-                r,
-                PairRejection::Motion { .. } | PairRejection::TooFewDepthPoints { .. }
-            )
-        }),
-        rejected_later: count(&|r| {
-            matches!(
-                r,
-                PairRejection::AngleMismatch
-                    | PairRejection::Residual { .. }
-                    | PairRejection::NonPositiveScale { .. }
-            )
-        }),
+        too_little_rotation: c.small_rotation,
+        too_few_matches: c.too_few_matches,
+        motion_failed: c.motion_failed,
+        rejected_later: c.rejected_later,
     }
 }
 
@@ -774,7 +758,7 @@ fn degeneracy_kept(
 }
 
 /// Per-pair scales from X: `s = u^T((R_B - I) t_X + t_B) / |t_A|`, `u = R_X t_A / |t_A|`.
-fn scales_from_x(
+pub(crate) fn scales_from_x(
     motions: &[(Isometry3<f64>, Isometry3<f64>, f64)],
     x: &Isometry3<f64>,
 ) -> Vec<f64> {
