@@ -8,7 +8,9 @@ mod selfcal_support;
 
 use calib::handeye::pose_error;
 use calib::relpose::CameraModel;
-use calib::selfcal::{CalibView, CalibrationStage, CalibrationStageConfig};
+use calib::selfcal::{
+    CalibView, CalibrationStage, CalibrationStageConfig, SelfCalParams, self_calibrate,
+};
 use image::GrayImage;
 use msgs::builtin_interfaces::Time;
 use msgs::frames::{BASE_LINK, CAMERA_COLOR_OPTICAL_FRAME, TOOL0};
@@ -238,12 +240,27 @@ fn stage_calibrates_and_switches_the_camera_edge_from_nominal_to_the_estimate() 
     let (ri, ti) = pose_error(&x.inverse(), &x_true);
     assert!(ri > 1.0 || ti > 0.01);
 
-    let matches = h
+    let matches: Vec<_> = h
         .out
         .iter()
-        .filter(|(t, m)| t == topics::CALIBRATION_MATCHES && matches!(m, Msg::FeatureMatches(_)))
-        .count();
-    assert!(matches >= c.pairs as usize, "{matches} match messages");
+        .filter_map(|(t, m)| match m {
+            Msg::FeatureMatches(f) if t == topics::CALIBRATION_MATCHES => Some(f.clone()),
+            _ => None,
+        })
+        .collect();
+    assert!(
+        matches.len() >= c.pairs as usize,
+        "{} match messages",
+        matches.len()
+    );
+    // `inlier` is the pair motion's RANSAC verdict, not GMS's: the same flags as the
+    // pipeline's on the same views.
+    let direct = self_calibrate(&views, &cam, &SelfCalParams::default()).expect("calibrates");
+    assert_eq!(matches.len(), direct.matches.len());
+    for (msg, m) in matches.iter().zip(&direct.matches) {
+        assert_eq!(msg.inlier, m.motion_inliers, "pair ({}, {})", m.i, m.j);
+        assert_eq!(msg.inlier.len() * 2, msg.pairs.len());
+    }
 
     // After acceptance: the calibrated edge.
     let late = 100_000_000_000;

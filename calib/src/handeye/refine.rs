@@ -274,6 +274,31 @@ pub(crate) fn pair_jacobian(
     (r_rot, r_t, j_rot, j_t)
 }
 
+/// One pair's contribution to the IRLS normal equations at `(x, scale)`: `(J^T W J,
+/// J^T W r, rho, w(u) u^2)` with parameter order `(theta, t, rho)` (the `rho` column zero
+/// without `scale_free`).
+fn pair_normal(
+    m: &RelativeMotion,
+    x: &Isometry3<f64>,
+    scale: f64,
+    sigmas: (f64, f64),
+    loss: RobustLoss,
+    scale_free: bool,
+) -> (SMatrix<f64, 7, 7>, SVector<f64, 7>, f64, f64) {
+    let (sr, st) = sigmas;
+    let (r_rot, r_t, j_rot, j_t) = pair_jacobian(m, x, scale, scale_free);
+    let u_r = r_rot.norm() / sr;
+    let u_t = r_t.norm() / st;
+    let w_r = m.weight * loss.weight(u_r) / (sr * sr);
+    let w_t = m.weight * loss.weight(u_t) / (st * st);
+    (
+        w_r * j_rot.transpose() * j_rot + w_t * j_t.transpose() * j_t,
+        w_r * j_rot.transpose() * r_rot + w_t * j_t.transpose() * r_t,
+        m.weight * (loss.rho(u_r) + loss.rho(u_t)),
+        m.weight * (loss.weight(u_r) * u_r * u_r + loss.weight(u_t) * u_t * u_t),
+    )
+}
+
 pub(crate) fn linearise(
     motions: &[RelativeMotion],
     x: &Isometry3<f64>,
@@ -282,21 +307,16 @@ pub(crate) fn linearise(
     loss: RobustLoss,
     scale_free: bool,
 ) -> Linearisation {
-    let (sr, st) = sigmas;
     let mut h = SMatrix::<f64, 7, 7>::zeros();
     let mut g = SVector::<f64, 7>::zeros();
     let mut cost = 0.0;
     let mut chi2 = 0.0;
     for m in motions {
-        let (r_rot, r_t, j_rot, j_t) = pair_jacobian(m, x, scale, scale_free);
-        let u_r = r_rot.norm() / sr;
-        let u_t = r_t.norm() / st;
-        let w_r = m.weight * loss.weight(u_r) / (sr * sr);
-        let w_t = m.weight * loss.weight(u_t) / (st * st);
-        h += w_r * j_rot.transpose() * j_rot + w_t * j_t.transpose() * j_t;
-        g += w_r * j_rot.transpose() * r_rot + w_t * j_t.transpose() * r_t;
-        cost += m.weight * (loss.rho(u_r) + loss.rho(u_t));
-        chi2 += m.weight * (loss.weight(u_r) * u_r * u_r + loss.weight(u_t) * u_t * u_t);
+        let (info, grad, rho, chi) = pair_normal(m, x, scale, sigmas, loss, scale_free);
+        h += info;
+        g += grad;
+        cost += rho;
+        chi2 += chi;
     }
     if !scale_free {
         h.fixed_view_mut::<1, 7>(6, 0).fill(0.0);
@@ -305,6 +325,68 @@ pub(crate) fn linearise(
         g[6] = 0.0;
     }
     Linearisation { h, g, cost, chi2 }
+}
+
+/// Normal equations in the 6 parameters of X only, `(theta, t)` of the module docs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Normal6 {
+    /// `H = sum J^T W J` (Gauss-Newton information, residuals normalised by their scales).
+    pub h: SMatrix<f64, 6, 6>,
+    /// `g = sum J^T W r`.
+    pub g: SVector<f64, 6>,
+    /// Robust cost `sum rho`.
+    pub cost: f64,
+    /// Weighted chi^2 `sum w(u) u^2` of the normalised residual blocks.
+    pub chi2: f64,
+}
+
+/// The normal equations of X at `x` over `motions` (metric eye translations, residual scales
+/// `sigmas`, robust loss `loss` with its IRLS weights at `x`). With `per_motion_scale` every
+/// motion has its own free eye scale (the monocular case: each `t_A` known only up to its
+/// own scale), which is eliminated per motion by the Schur complement of its row:
+///
+/// ```text
+/// I_k = J_k^T W_k J_k (7x7, parameters (theta, t, rho_k)),   rho_k = log s_k
+/// H  += I_k[x,x] - I_k[x,rho] I_k[rho,rho]^-1 I_k[rho,x]
+/// g  += g_k[x]   - I_k[x,rho] I_k[rho,rho]^-1 g_k[rho]
+/// ```
+///
+/// which is the exact X block of the Gauss-Newton step of the joint problem over X and all
+/// the scales (variable projection; Golub & Pereyra 1973). `(H, g)` give the step
+/// `delta = -H^-1 g` and, at the optimum, the covariance `H^-1` of X in units of the scales.
+pub fn normal_equations_x(
+    motions: &[RelativeMotion],
+    x: &Isometry3<f64>,
+    sigmas: (f64, f64),
+    loss: RobustLoss,
+    per_motion_scale: bool,
+) -> Normal6 {
+    let mut h = SMatrix::<f64, 6, 6>::zeros();
+    let mut g = SVector::<f64, 6>::zeros();
+    let mut cost = 0.0;
+    let mut chi2 = 0.0;
+    for m in motions {
+        let (info, grad, rho, chi) = pair_normal(m, x, 1.0, sigmas, loss, per_motion_scale);
+        let mut h_k = info.fixed_view::<6, 6>(0, 0).into_owned();
+        let mut g_k = grad.fixed_rows::<6>(0).into_owned();
+        let i_ss = info[(6, 6)];
+        if per_motion_scale && i_ss > 0.0 {
+            let i_xs = info.fixed_view::<6, 1>(0, 6).into_owned();
+            h_k -= i_xs * i_xs.transpose() / i_ss;
+            g_k -= i_xs * (grad[6] / i_ss);
+        }
+        h += h_k;
+        g += g_k;
+        cost += rho;
+        chi2 += chi;
+    }
+    Normal6 { h, g, cost, chi2 }
+}
+
+/// `X <- (exp([d_theta]x) R_X, t_X + d_t)`, the update of the module docs.
+pub fn apply_x_step(x: &Isometry3<f64>, d: &SVector<f64, 6>) -> Isometry3<f64> {
+    let r = rotation_exp(&Vector3::new(d[0], d[1], d[2])) * rot(x);
+    isometry(&r, &(x.translation.vector + Vector3::new(d[3], d[4], d[5])))
 }
 
 fn robust_cost(
@@ -324,9 +406,10 @@ fn robust_cost(
 }
 
 fn apply(x: &Isometry3<f64>, scale: f64, d: &SVector<f64, 7>) -> (Isometry3<f64>, f64) {
-    let r = rotation_exp(&Vector3::new(d[0], d[1], d[2])) * rot(x);
-    let t = x.translation.vector + Vector3::new(d[3], d[4], d[5]);
-    (isometry(&r, &t), scale * d[6].exp())
+    (
+        apply_x_step(x, &d.fixed_rows::<6>(0).into_owned()),
+        scale * d[6].exp(),
+    )
 }
 
 /// Refines `(x0, s0)` (module docs). With automatic residual scales the refinement runs

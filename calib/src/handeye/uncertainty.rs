@@ -18,10 +18,18 @@
 //! the factor `P / M` inflates the covariance to what `M` independent motions would give
 //! (for relative motions given directly, `M = P`). The same figures are computed for every
 //! method, at its own estimate.
+//!
+//! **Per-motion scales** ([`evaluate_per_motion_scale`], the monocular self-calibration): each
+//! eye translation carries its own fitted scale, a nuisance parameter. Holding them fixed
+//! would count the translation along each `t_A` as measured; instead they are eliminated by
+//! the Schur complement ([`super::refine::normal_equations_x`]) and
+//! `chi^2 / (6 P - 6 - P)` is the reduced chi-square.
 
 use nalgebra::Isometry3;
 
-use super::refine::{MIN_RESIDUAL_SCALE, linearise, median, pair_residual, residual_scales};
+use super::refine::{
+    MIN_RESIDUAL_SCALE, linearise, median, normal_equations_x, pair_residual, residual_scales,
+};
 use super::{HandEyeOptions, RelativeMotion};
 
 /// Figures of [`evaluate`].
@@ -66,15 +74,7 @@ pub fn evaluate(
     let dof = (6 * pairs).saturating_sub(params).max(1) as f64;
     let inflation = pairs as f64 / independent_motions.clamp(1, pairs.max(1)) as f64;
     let (sigma_rot_deg, sigma_trans_mm) = match lin.h.try_inverse() {
-        Some(cov) => {
-            let k = lin.chi2 / dof * inflation;
-            let tr_rot = (cov[(0, 0)] + cov[(1, 1)] + cov[(2, 2)]) * k;
-            let tr_t = (cov[(3, 3)] + cov[(4, 4)] + cov[(5, 5)]) * k;
-            (
-                tr_rot.max(0.0).sqrt().to_degrees(),
-                tr_t.max(0.0).sqrt() * 1e3,
-            )
-        }
+        Some(cov) => sigma_figures(|i| cov[(i, i)], lin.chi2 / dof * inflation),
         None => (f64::NAN, f64::NAN),
     };
     Stats {
@@ -83,4 +83,43 @@ pub fn evaluate(
         sigma_rot_deg,
         sigma_trans_mm,
     }
+}
+
+/// As [`evaluate`] (scale 1) for metric motions whose eye translations each carry their own
+/// fitted scale (module docs): the scales are marginalised, so the translation uncertainty
+/// includes the directions they leave undetermined.
+pub fn evaluate_per_motion_scale(
+    motions: &[RelativeMotion],
+    x: &Isometry3<f64>,
+    opts: &HandEyeOptions,
+    independent_motions: usize,
+) -> Stats {
+    let mut stats = evaluate(motions, x, 1.0, opts, independent_motions);
+    let (auto_r, auto_t) = residual_scales(motions, x, 1.0);
+    let sigmas = (
+        opts.rot_scale_rad
+            .map_or(auto_r, |s| s.max(MIN_RESIDUAL_SCALE)),
+        opts.trans_scale_m
+            .map_or(auto_t, |s| s.max(MIN_RESIDUAL_SCALE)),
+    );
+    let n = normal_equations_x(motions, x, sigmas, opts.loss, true);
+    let pairs = motions.len();
+    let dof = (5 * pairs).saturating_sub(6).max(1) as f64;
+    let inflation = pairs as f64 / independent_motions.clamp(1, pairs.max(1)) as f64;
+    (stats.sigma_rot_deg, stats.sigma_trans_mm) = match n.h.try_inverse() {
+        Some(cov) => sigma_figures(|i| cov[(i, i)], n.chi2 / dof * inflation),
+        None => (f64::NAN, f64::NAN),
+    };
+    stats
+}
+
+/// `(sqrt(trace Sigma_theta) deg, sqrt(trace Sigma_t) mm)` of `Sigma = k C`, `C_ii` given by
+/// `diag(i)` for the parameter order `(theta, t)`.
+fn sigma_figures(diag: impl Fn(usize) -> f64, k: f64) -> (f64, f64) {
+    let tr_rot = (diag(0) + diag(1) + diag(2)) * k;
+    let tr_t = (diag(3) + diag(4) + diag(5)) * k;
+    (
+        tr_rot.max(0.0).sqrt().to_degrees(),
+        tr_t.max(0.0).sqrt() * 1e3,
+    )
 }

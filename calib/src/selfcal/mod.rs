@@ -68,13 +68,23 @@
 //! mount of [`robot::camera_mount`] until a calibration is accepted), and its refusals on
 //! `/rosout`.
 //!
+//! # Drift check ([`drift`])
+//!
+//! Before operating (issue 12's self-maintenance), [`check_drift`] runs steps 1-3 on a few
+//! views of the check motion ([`CHECK_MOTION`]) and tests the `X` in use against their
+//! AX=XB residuals: Consistent, Drifted (with the estimated change of the mount) or
+//! CannotTell (with the reason), thresholds from the measurement noise.
+//!
 //! # Refusals (never a wrong X)
 //!
-//! Too few views, images of the wrong size, dark/textureless views, too few usable pairs,
+//! An X that its own pairs do not support ([`ConsistencyLimits`]: too few of the pairs with a
+//! camera motion kept, too little redundancy, large residuals or a large uncertainty), too
+//! few views, images of the wrong size, dark/textureless views, too few usable pairs,
 //! degenerate hand motion (single rotation axis, pure translation: [`crate::handeye`]'s
 //! refusals), missing TF or stamps outside its range, depth without a colour image at the
 //! same stamp ([`messages`]). Ground truth (`/sim/...`) is never read.
 
+pub mod drift;
 pub mod messages;
 pub mod motion;
 pub mod pairs;
@@ -84,8 +94,9 @@ pub mod stage;
 pub mod views;
 pub mod yaml;
 
+pub use drift::{CHECK_MOTION, CannotTell, DriftParams, DriftReport, DriftVerdict, check_drift};
 pub use messages::views_from_messages;
-pub use pipeline::{SelfCalParams, SelfCalResult, self_calibrate};
+pub use pipeline::{ConsistencyLimits, SelfCalParams, SelfCalResult, self_calibrate};
 pub use stage::{CalibrationStage, CalibrationStageConfig};
 pub use views::CalibView;
 pub use yaml::{calibration_yaml, result_json};
@@ -118,6 +129,36 @@ impl Mode {
             Mode::Rgbd => "rgbd",
             Mode::Mono => "mono",
         }
+    }
+}
+
+impl std::fmt::Display for Mode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Which rule of [`ConsistencyLimits`] refused a solution.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ConsistencyRule {
+    /// Too few of the pairs with a camera motion agree with X.
+    Consensus,
+    /// Too few residual degrees of freedom to judge X.
+    Redundancy,
+    /// The median rotation residual is too large.
+    Residual,
+    /// The uncertainty of X is too large.
+    Uncertainty,
+}
+
+impl std::fmt::Display for ConsistencyRule {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ConsistencyRule::Consensus => "most pairs with a camera motion disagree with it",
+            ConsistencyRule::Redundancy => "too few pairs agree to judge it",
+            ConsistencyRule::Residual => "the hand and camera motions disagree under it",
+            ConsistencyRule::Uncertainty => "it is too uncertain",
+        })
     }
 }
 
@@ -213,6 +254,38 @@ pub enum SelfCalError {
         motion_failed: usize,
         /// Pairs rejected by residual.
         rejected_later: usize,
+    },
+    /// The final X fails a consistency rule ([`ConsistencyLimits`]): it is not returned.
+    #[error(
+        "inconsistent {mode} self-calibration refused ({rule}): {pairs_used} of {pairs_with_motion} pairs with a camera motion used (need {:.0}%), {dof} residual degrees of freedom (need {}), median residual {residual_rot_deg:.3} deg / {residual_trans_mm:.2} mm (limit {} deg), 1-sigma {sigma_rot_deg:.3} deg / {sigma_trans_mm:.2} mm (limits {} deg / {} mm); the views do not determine X reliably: capture more views that overlap (a textured, well-lit scene at the working distance, wrist rotations of 10-40 deg between neighbours){}",
+        100.0 * limits.min_kept_fraction,
+        limits.min_dof,
+        limits.max_residual_rot_deg,
+        limits.max_sigma_rot_deg,
+        limits.max_sigma_trans_mm,
+        if *mode == Mode::Mono { ", or use depth (mode rgbd)" } else { "" }
+    )]
+    Inconsistent {
+        /// RGB-D or mono.
+        mode: Mode,
+        /// The first rule that failed.
+        rule: ConsistencyRule,
+        /// Pairs used by the final X.
+        pairs_used: usize,
+        /// Pairs that gave a camera motion.
+        pairs_with_motion: usize,
+        /// Residual degrees of freedom.
+        dof: usize,
+        /// Median rotation residual over the used pairs, degrees.
+        residual_rot_deg: f64,
+        /// Median translation residual over the used pairs, millimetres.
+        residual_trans_mm: f64,
+        /// 1-sigma rotation uncertainty of X, degrees.
+        sigma_rot_deg: f64,
+        /// 1-sigma translation uncertainty of X, millimetres.
+        sigma_trans_mm: f64,
+        /// The limits applied.
+        limits: ConsistencyLimits,
     },
     /// The hand-eye solver refused the motions (degenerate motion etc.).
     #[error("hand-eye solve: {0}")]

@@ -35,6 +35,24 @@ pub struct PairMotion {
     /// approximation: keypoint error `sigma_px scale_factor^level` back-projected at its depth,
     /// plus the depth noise, for both points); mono: empty.
     pub point_sigma_m: Vec<f64>,
+    /// The RANSAC verdict per GMS match of the pair (index = [`PairMatches::coords`]'s):
+    /// `true` when the match is consistent with `A_ij` (RGB-D: `|p_i - A_ij p_j|` within
+    /// the 3D-3D threshold; mono: Sampson distance within the threshold and in front of both
+    /// cameras). A match the estimator never saw (no depth in a view, a depth step, a failed
+    /// undistortion) is `false`.
+    pub match_inliers: Vec<bool>,
+}
+
+/// Spreads the estimator's inlier flags (one per point it was given, `used[k]` the match
+/// index of its point `k`) over all `n` matches of the pair; the others are `false`.
+fn match_flags(n: usize, used: &[usize], inliers: &[bool]) -> Vec<bool> {
+    let mut flags = vec![false; n];
+    for (&k, &inlier) in used.iter().zip(inliers) {
+        if let Some(f) = flags.get_mut(k) {
+            *f = inlier;
+        }
+    }
+    flags
 }
 
 /// Deterministic per-pair seed.
@@ -70,9 +88,11 @@ pub fn rgbd_motion(
     let mut p_i = Vec::with_capacity(coords.len());
     let mut p_j = Vec::with_capacity(coords.len());
     let mut sig = Vec::with_capacity(coords.len());
-    for (c, l) in coords
+    let mut used = Vec::with_capacity(coords.len());
+    for (k, (c, l)) in coords
         .iter()
         .zip(levels.iter().chain(std::iter::repeat(&[0u8, 0u8])))
+        .enumerate()
     {
         let (Some(zi), Some(zj)) = (
             view_i.depth_at(c[0], c[1], MAX_DEPTH_STEP),
@@ -86,6 +106,7 @@ pub fn rgbd_motion(
             p_i.push(a);
             p_j.push(b);
             sig.push((var(zi, l[0]) + var(zj, l[1])).sqrt());
+            used.push(k);
         }
     }
     if p_i.len() < min_points {
@@ -101,6 +122,7 @@ pub fn rgbd_motion(
     let est = estimate_rigid_ransac(&p_i, &p_j, &rp, seed).map_err(|e| PairRejection::Motion {
         reason: e.to_string(),
     })?;
+    let match_inliers = match_flags(coords.len(), &used, &est.inliers);
     let (points, point_sigma_m) = p_i
         .into_iter()
         .zip(p_j)
@@ -115,6 +137,7 @@ pub fn rgbd_motion(
         rms: est.rms_m,
         points,
         point_sigma_m,
+        match_inliers,
     })
 }
 
@@ -135,12 +158,14 @@ pub fn mono_motion(
     let params = &params.essential;
     let mut x_i = Vec::with_capacity(coords.len());
     let mut x_j = Vec::with_capacity(coords.len());
-    for c in coords {
+    let mut used = Vec::with_capacity(coords.len());
+    for (k, c) in coords.iter().enumerate() {
         let a = camera.undistort_pixel(&Point2::new(f64::from(c[0]), f64::from(c[1])));
         let b = camera.undistort_pixel(&Point2::new(f64::from(c[2]), f64::from(c[3])));
         if let (Ok(a), Ok(b)) = (a, b) {
             x_i.push(a);
             x_j.push(b);
+            used.push(k);
         }
     }
     let f = 0.5 * (camera.fx + camera.fy);
@@ -157,6 +182,7 @@ pub fn mono_motion(
         rms: est.rms_sampson,
         points: Vec::new(),
         point_sigma_m: Vec::new(),
+        match_inliers: match_flags(coords.len(), &used, &est.inliers),
     })
 }
 

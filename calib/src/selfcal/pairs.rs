@@ -70,6 +70,48 @@ pub enum PairRejection {
     },
 }
 
+/// How many pairs were rejected for each kind of reason (the refusal figures of
+/// [`super::SelfCalError::TooFewPairs`] and the drift check's).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct RejectionCounts {
+    /// Pairs used (no rejection).
+    pub usable: usize,
+    /// [`PairRejection::SmallRotation`].
+    pub small_rotation: usize,
+    /// [`PairRejection::TooFewMatches`].
+    pub too_few_matches: usize,
+    /// The motion estimate failed: [`PairRejection::Motion`],
+    /// [`PairRejection::TooFewDepthPoints`].
+    pub motion_failed: usize,
+    /// Rejected after the motion: [`PairRejection::AngleMismatch`],
+    /// [`PairRejection::NonPositiveScale`], [`PairRejection::Residual`].
+    pub rejected_later: usize,
+}
+
+impl RejectionCounts {
+    /// Counts the rejections of a list of pairs (`None` = used).
+    pub fn of<'a>(rejections: impl IntoIterator<Item = Option<&'a PairRejection>>) -> Self {
+        let mut c = Self::default();
+        for r in rejections {
+            let slot = match r {
+                None => &mut c.usable,
+                Some(PairRejection::SmallRotation { .. }) => &mut c.small_rotation,
+                Some(PairRejection::TooFewMatches { .. }) => &mut c.too_few_matches,
+                Some(PairRejection::Motion { .. } | PairRejection::TooFewDepthPoints { .. }) => {
+                    &mut c.motion_failed
+                }
+                Some(
+                    PairRejection::AngleMismatch
+                    | PairRejection::NonPositiveScale { .. }
+                    | PairRejection::Residual { .. },
+                ) => &mut c.rejected_later,
+            };
+            *slot += 1;
+        }
+        c
+    }
+}
+
 /// GMS matches of one pair in full-size pixels.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PairMatches {
@@ -86,6 +128,11 @@ pub struct PairMatches {
     /// Pyramid levels `[level_i, level_j]` of the two keypoints of each inlier (their
     /// localisation error grows with `scale_factor^level`).
     pub levels: Vec<[u8; 2]>,
+    /// Per GMS match: consistent with the pair's estimated camera motion (the relative-pose
+    /// RANSAC verdict, [`super::motion::PairMotion::match_inliers`]). All `false` from
+    /// [`match_pair`] and for a pair whose motion could not be estimated; the pipeline fills
+    /// it in.
+    pub motion_inliers: Vec<bool>,
 }
 
 /// The full-resolution position of a keypoint. ORB reports `x_level * s^level` (as OpenCV),
@@ -192,6 +239,7 @@ pub fn match_pair(
             raw_matches: 0,
             coords: Vec::new(),
             levels: Vec::new(),
+            motion_inliers: Vec::new(),
         };
     };
     let scale_factor = params.orb.scale_factor;
@@ -206,7 +254,7 @@ pub fn match_pair(
         &matches,
         &params.gms,
     );
-    let (coords, levels) = matches
+    let (coords, levels): (Vec<[f32; 4]>, Vec<[u8; 2]>) = matches
         .iter()
         .zip(&mask)
         .filter(|(_, k)| **k)
@@ -218,6 +266,7 @@ pub fn match_pair(
             Some(([ax, ay, bx, by], [a.level, b.level]))
         })
         .unzip();
+    let motion_inliers = vec![false; coords.len()];
     PairMatches {
         i,
         j,
@@ -225,5 +274,6 @@ pub fn match_pair(
         raw_matches: matches.len(),
         coords,
         levels,
+        motion_inliers,
     }
 }

@@ -15,7 +15,7 @@
 //! |---|---|
 //! | `/tf` | with every `/joint_states` of a new stamp: the nominal mount ([`robot::camera_mount`]) until a calibration is accepted, then the accepted `tool0_from_camera`, stamped with the JointState's stamp |
 //! | `/calibration/hand_eye` | each self-calibration that succeeds (quality and 1-sigma uncertainty filled, [`hand_eye_msg`]) |
-//! | `/calibration/matches` | with it: one message per candidate view pair, its GMS inlier matches |
+//! | `/calibration/matches` | with it: one message per candidate view pair, its GMS matches, flagged `inlier` when consistent with the pair's estimated camera motion (RANSAC verdict) |
 //! | `/rosout` | every view skipped and every refusal, saying what to do; the acceptance |
 //!
 //! The `robot_state` stage never publishes the camera edge, so it is published exactly once
@@ -647,7 +647,10 @@ pub fn hand_eye_msg(result: &SelfCalResult, stamp: Time) -> HandEyeCalibration {
 
 /// One `/calibration/matches` message per candidate pair of `result` (in pair order): the GMS
 /// inliers as keypoints `a` (view `i`) and `b` (view `j`) in full-size pixels, pairs
-/// `(k, k)`, every flag `true` (they passed GMS).
+/// `(k, k)`; `inlier[k]` is the relative-pose RANSAC verdict (3D-3D in RGB-D, essential
+/// matrix in mono): `true` only for a match consistent with the pair's estimated camera
+/// motion ([`crate::selfcal::pairs::PairMatches::motion_inliers`]), all `false` for a pair
+/// whose motion could not be estimated.
 #[must_use]
 pub fn matches_msgs(
     result: &SelfCalResult,
@@ -685,7 +688,9 @@ pub fn matches_msgs(
                 keypoints_a,
                 keypoints_b,
                 pairs,
-                inlier: vec![true; n],
+                inlier: (0..n)
+                    .map(|k| m.motion_inliers.get(k).copied().unwrap_or(false))
+                    .collect(),
             }
         })
         .collect()

@@ -49,6 +49,22 @@ impl Rng {
     }
 }
 
+/// Standard normal deviates: Box-Muller on a seeded SplitMix64 stream (deterministic).
+pub struct Normals(Rng);
+
+impl Normals {
+    /// The stream of `seed`.
+    pub fn new(seed: u64) -> Self {
+        Self(Rng(seed))
+    }
+
+    /// The next deviate.
+    pub fn sample(&mut self) -> f64 {
+        let (u1, u2) = (self.0.unit().max(1e-300), self.0.unit());
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    }
+}
+
 /// Texture of the plane: `N x N` texels of 1 mm centred on the world origin.
 pub struct Texture {
     n: usize,
