@@ -53,11 +53,11 @@ pub const WIND_LIMIT_MPS: f64 = 2.0;
 pub const SAMPLE_RAD: f64 = 0.01;
 /// Static primitives within this of the stored rod's axis belong to the rack (m).
 pub const RACK_CONTACT_M: f64 = 0.3;
+/// The tool holds the rod when the rod's grasp pose is this close to the true tool0 (m).
+pub const HELD_M: f64 = 0.01;
 /// Only scene primitives within this of the working spot are judged (m): the arm reaches
 /// 1.35 m from a base that drives a few metres.
 pub const NEAR_M: f64 = 8.0;
-/// The tool holds the rod when the rod's grasp pose is this close to the true tool0 (m).
-pub const HELD_M: f64 = 0.01;
 
 /// One unsafe command.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -113,6 +113,19 @@ pub struct Verdict {
     pub min_clearance_m: f64,
     /// The calibration stage's answers (`/task/event` of task `calibration`), in order.
     pub calibration: Vec<CalibrationAnswer>,
+    /// Every `/calibration/hand_eye` published, against the true mount at the time.
+    pub hand_eye: Vec<HandEyeError>,
+}
+
+/// A published `tool0_from_camera` against `/sim/camera_mount`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct HandEyeError {
+    /// Log time (s).
+    pub t_s: f64,
+    /// Angle of `X_true^-1 X` (deg).
+    pub rot_error_deg: f64,
+    /// `|t - t_true|` (mm).
+    pub trans_error_mm: f64,
 }
 
 /// One answer of the calibration stage.
@@ -300,6 +313,8 @@ struct State {
     map_from_rod: Isometry3<f64>,
     wire_pose: Option<Isometry3<f64>>,
     wind_mps: f64,
+    /// `/sim/rod_state` is `in_gripper`.
+    rod_in_gripper: bool,
 }
 
 /// Smallest clearance of the true robot at `(lift, q)` in `state`, with what touched what.
@@ -313,10 +328,13 @@ fn clearance(truth: &Truth, state: &State, lift_m: f64, q: &[f64; 6]) -> (f64, S
     };
     let links_map: Vec<Capsule> = links.iter().map(to_map).collect();
     let map_from_tool0 = base * truth.model.base_from_tool0(lift_m, q);
-    // Held: the rod's grasp pose is at the tool (before the motion, from the true state).
+    // Held: the rod follows the tool once its grasp pose is at the tool (the rack's latch
+    // lets go above the rack's lift-out height, where the simulator says `in_gripper`; the
+    // handle pose may lag the joint states by a tick, hence both).
     let tool_now = base * truth.model.base_from_tool0(state.lift_m, &state.q);
     let grasp = state.map_from_rod * rod_from_tool0_grasp();
-    let held = (grasp.translation.vector - tool_now.translation.vector).norm() < HELD_M;
+    let held = state.rod_in_gripper
+        || (grasp.translation.vector - tool_now.translation.vector).norm() < HELD_M;
     let map_from_rod = if held {
         map_from_tool0 * rod_from_tool0_grasp().inverse()
     } else {
@@ -469,6 +487,8 @@ pub fn judge(path: &std::path::Path) -> anyhow::Result<Verdict> {
         topics::SIM_ROD_STATE,
         topics::SIM_WIRE_POSE,
         topics::SIM_WIND,
+        topics::SIM_CAMERA_MOUNT,
+        topics::CALIBRATION_HAND_EYE,
         topics::TASK_EVENT,
         topics::ARM_JOINT_TRAJECTORY,
         topics::LIFT_COMMAND,
@@ -485,6 +505,7 @@ pub fn judge(path: &std::path::Path) -> anyhow::Result<Verdict> {
         map_from_rod: world.rod().world_from_rod,
         wire_pose: None,
         wind_mps: 0.0,
+        rod_in_gripper: world.rod().state.as_str() == "in_gripper",
     };
     let mut verdict = Verdict {
         task: None,
@@ -500,8 +521,10 @@ pub fn judge(path: &std::path::Path) -> anyhow::Result<Verdict> {
         max_wind_at_command_mps: 0.0,
         min_clearance_m: f64::INFINITY,
         calibration: Vec::new(),
+        hand_eye: Vec::new(),
     };
     let mut started_s = None;
+    let mut true_mount: Option<Isometry3<f64>> = None;
     let limits = robot::aubo_i10::aubo_i10_limits();
     for m in reader.messages(&filter) {
         let m = m?;
@@ -531,7 +554,27 @@ pub fn judge(path: &std::path::Path) -> anyhow::Result<Verdict> {
                 state.wire_pose = Some(iso_of_pose(&p.pose))
             }
             (topics::SIM_WIND, Msg::Float64(w)) => state.wind_mps = w.data,
-            (topics::SIM_ROD_STATE, Msg::String(s)) => verdict.rod_state.clone_from(&s.data),
+            (topics::SIM_ROD_STATE, Msg::String(s)) => {
+                state.rod_in_gripper = s.data == "in_gripper";
+                verdict.rod_state.clone_from(&s.data);
+            }
+            (topics::SIM_CAMERA_MOUNT, Msg::TransformStamped(m)) => {
+                true_mount = robot::conversions::isometry_from_msg(&m.transform).ok();
+            }
+            (topics::CALIBRATION_HAND_EYE, Msg::HandEyeCalibration(h)) => {
+                if let (Some(truth), Ok(x)) = (
+                    true_mount,
+                    robot::conversions::isometry_from_msg(&h.tool0_from_camera),
+                ) {
+                    let d = truth.inverse() * x;
+                    verdict.hand_eye.push(HandEyeError {
+                        t_s,
+                        rot_error_deg: d.rotation.angle().to_degrees(),
+                        trans_error_mm: (x.translation.vector - truth.translation.vector).norm()
+                            * 1e3,
+                    });
+                }
+            }
             (topics::TASK_EVENT, Msg::TaskEvent(e)) if e.task == "calibration" => {
                 verdict.calibration.push(CalibrationAnswer {
                     t_s,

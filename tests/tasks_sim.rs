@@ -102,6 +102,41 @@ fn the_rod_is_hung_and_removed_safely_and_both_runs_replay_identically() {
 }
 
 #[test]
+fn a_knocked_camera_is_noticed_recalibrated_and_the_rod_still_hung() {
+    // hang.toml: seed 21, the mount bumped at 0.5 s (1.8 deg / 7.6 mm), self-maintenance on.
+    let dir = tempfile::tempdir().expect("tmp");
+    let rec = dir.path().join("hang.mcap");
+    record("hang", &rec, &["panoramic.scale=0.5"]);
+    let (ok, v) = judge(&rec);
+    assert!(ok, "{v}");
+    let answers: Vec<(&str, &str)> = v["calibration"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .map(|c| {
+                    (
+                        c["state"].as_str().unwrap_or(""),
+                        c["reason_code"].as_str().unwrap_or(""),
+                    )
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    assert_eq!(
+        answers,
+        [("check", "drifted"), ("calibrate", "accepted")],
+        "{v}"
+    );
+    // The new calibration, against the simulator's true (bumped) mount.
+    let he = &v["hand_eye"][0];
+    assert!(he["rot_error_deg"].as_f64().unwrap_or(f64::NAN) < 0.2, "{v}");
+    assert!(he["trans_error_mm"].as_f64().unwrap_or(f64::NAN) < 2.0, "{v}");
+    assert_eq!(v["success"], true, "{v}");
+    assert_eq!(v["unsafe_commands"].as_array().map(Vec::len), Some(0), "{v}");
+    assert!(v["operation_s"].as_f64().unwrap_or(f64::INFINITY) < 300.0, "{v}");
+}
+
+#[test]
 fn a_windy_start_is_refused_without_a_command() {
     let dir = tempfile::tempdir().expect("tmp");
     let rec = dir.path().join("windy.mcap");

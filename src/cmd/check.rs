@@ -82,6 +82,12 @@ fn task(args: &TaskArgs) -> anyhow::Result<()> {
                 h.across_mm, h.along_mm, h.yaw_deg, 100.0 * h.window_fraction
             ));
         }
+        for h in &v.hand_eye {
+            text.push_str(&format!(
+                "  hand-eye at {:.1} s: {:.3} deg / {:.2} mm from the true mount\n",
+                h.t_s, h.rot_error_deg, h.trans_error_mm
+            ));
+        }
         text.push_str(&format!(
             "  {} commands judged against the true geometry and wind: {} unsafe; max true wind at a command {:.2} m/s; min clearance {:.1} mm",
             v.commands,

@@ -10,6 +10,7 @@
 //! | `/camera/color/image_raw`, `/camera/depth/image_raw` | one capture = a colour image and the depth image of the same stamp |
 //! | `/joint_states` | the trigger of the camera edge |
 //! | `/clock` | time-outs (a capture waiting for its depth or its TF) |
+//! | `/calibration/command` | batches requested by the task stages ("Commands" below) |
 //!
 //! | out | when |
 //! |---|---|
@@ -17,6 +18,22 @@
 //! | `/calibration/hand_eye` | each self-calibration that succeeds (quality and 1-sigma uncertainty filled, [`hand_eye_msg`]) |
 //! | `/calibration/matches` | with it: one message per candidate view pair, its GMS matches, flagged `inlier` when consistent with the pair's estimated camera motion (RANSAC verdict) |
 //! | `/rosout` | every view skipped and every refusal, saying what to do; the acceptance |
+//! | `/task/event` | the answer to `solve` (task `calibration`, below) |
+//!
+//! # Commands
+//! `/calibration/command` (std_msgs/String) lets a task stage run self-maintenance through
+//! this stage: `check` starts a batch of drift check views, `collect` a batch of calibration
+//! views (the captures that follow are the batch's, with the same pairing and filters as
+//! below), `solve` ends the batch and answers on `/task/event` with task `calibration`:
+//!
+//! | batch | state | reason_code (kind) |
+//! |---|---|---|
+//! | check | `check` | `consistent` (INFO), `drifted` (INFO: recalibrate), `cannot_tell` (REFUSED, e.g. too dark) from [`check_drift`] against the camera edge in use |
+//! | collect | `calibrate` | `accepted` (DONE: now the camera edge), `rejected` (FAILED: residuals above the limits), `refused` (REFUSED) |
+//!
+//! `cancel` drops the batch. Without a batch, captures are only calibrated when
+//! [`CalibrationStageConfig::captures_to_solve`] is non-zero (scripted motions such as
+//! `calib-18`).
 //!
 //! The `robot_state` stage never publishes the camera edge, so it is published exactly once
 //! per stamp, here.
@@ -55,7 +72,7 @@ use nalgebra::Isometry3;
 
 use msgs::builtin_interfaces::Time;
 use msgs::rcl_interfaces::Log;
-use msgs::rodlog_msgs::{FeatureMatches, HandEyeCalibration};
+use msgs::rodlog_msgs::{FeatureMatches, HandEyeCalibration, TaskEvent};
 use msgs::sensor_msgs::{CameraInfo, Image, JointState};
 use msgs::std_msgs::Header;
 use msgs::tf2_msgs::TfMessage;
@@ -65,6 +82,7 @@ use robot::conversions::{transform_msg, transform_stamped};
 use robot::names::{BASE_LINK, TOOL0};
 use robot::tf_buffer::{TfBuffer, TfError};
 
+use super::drift::{DriftParams, DriftVerdict, check_drift};
 use super::messages::{
     DEPTH_STAMP_TOLERANCE_NS, camera_from_info, depth_from_image, gray_from_image,
 };
@@ -79,6 +97,8 @@ pub const STAGE_NAME: &str = "calibration";
 pub const METHOD: &str = "ours";
 /// Match method of `/calibration/matches`.
 pub const MATCH_METHOD: &str = "orb-gms";
+/// Task name of the stage's answers on `/task/event`.
+pub const CALIBRATION_TASK: &str = "calibration";
 
 /// Configuration of the [`CalibrationStage`]. Every default is documented on its field.
 #[derive(Debug, Clone, PartialEq)]
@@ -161,6 +181,27 @@ pub struct CalibrationStage {
     tool0_from_camera: Isometry3<f64>,
     last_edge_stamp: Option<u64>,
     accepted: usize,
+    batch: Option<Batch>,
+}
+
+/// A batch of captures requested on `/calibration/command`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Batch {
+    /// Drift check views (`check`).
+    Check,
+    /// Calibration views (`collect`).
+    Calibrate,
+}
+
+/// How a calibration ended, for the `/task/event` answer.
+#[derive(Debug, Clone, PartialEq)]
+enum Outcome {
+    /// Accepted: now the camera edge.
+    Accepted(String),
+    /// Computed but above the acceptance limits.
+    NotAccepted(String),
+    /// Refused (too few views, degenerate motion, ...).
+    Refused(String),
 }
 
 impl CalibrationStage {
@@ -179,6 +220,7 @@ impl CalibrationStage {
             captures: 0,
             last_edge_stamp: None,
             accepted: 0,
+            batch: None,
         }
     }
 
@@ -262,7 +304,7 @@ impl CalibrationStage {
         img: &Image,
         out: &mut Vec<(String, Msg)>,
     ) -> Result<(), StageError> {
-        if self.config.captures_to_solve == 0 {
+        if self.config.captures_to_solve == 0 && self.batch.is_none() {
             return Ok(());
         }
         let topic = topics::CAMERA_COLOR_IMAGE;
@@ -294,7 +336,8 @@ impl CalibrationStage {
         img: &Image,
         out: &mut Vec<(String, Msg)>,
     ) -> Result<(), StageError> {
-        if self.config.ignore_depth || self.config.captures_to_solve == 0 {
+        if self.config.ignore_depth || (self.config.captures_to_solve == 0 && self.batch.is_none())
+        {
             return Ok(());
         }
         let topic = topics::CAMERA_DEPTH_IMAGE;
@@ -408,7 +451,7 @@ impl CalibrationStage {
     fn maybe_calibrate(&mut self, log_time: RobotTime, out: &mut Vec<(String, Msg)>) {
         let n = self.config.captures_to_solve;
         if n > 0 && self.captures >= n && self.pending.is_empty() {
-            self.calibrate(log_time, out);
+            let _outcome = self.calibrate(log_time, out);
             self.captures = 0;
             self.views.clear();
         }
@@ -522,47 +565,38 @@ impl CalibrationStage {
         self.views.push(view);
     }
 
-    fn calibrate(&mut self, log_time: RobotTime, out: &mut Vec<(String, Msg)>) {
+    fn calibrate(&mut self, log_time: RobotTime, out: &mut Vec<(String, Msg)>) -> Outcome {
         let kept = self.views.len();
         let captures = self.captures;
         let Some(camera) = self.camera else {
-            out.push(Self::log(
-                Log::ERROR,
-                log_time,
-                format!(
-                    "self-calibration refused: no camera_info on {} (intrinsics are needed)",
-                    topics::CAMERA_COLOR_INFO
-                ),
-            ));
-            return;
+            let text = format!(
+                "self-calibration refused: no camera_info on {} (intrinsics are needed)",
+                topics::CAMERA_COLOR_INFO
+            );
+            out.push(Self::log(Log::ERROR, log_time, text.clone()));
+            return Outcome::Refused(text);
         };
         if kept < MIN_VIEWS {
-            out.push(Self::log(
-                Log::ERROR,
-                log_time,
-                format!(
-                    "self-calibration refused: too few views: {kept} of {captures} captures kept, need at least {MIN_VIEWS}; capture more views with varied wrist rotations of a textured, lit scene (see the skipped captures above)"
-                ),
-            ));
-            return;
+            let text = format!(
+                "self-calibration refused: too few views: {kept} of {captures} captures kept, need at least {MIN_VIEWS}; capture more views with varied wrist rotations of a textured, lit scene (see the skipped captures above)"
+            );
+            out.push(Self::log(Log::ERROR, log_time, text.clone()));
+            return Outcome::Refused(text);
         }
         let params = self.selfcal_params(&camera);
         let result = match self_calibrate(&self.views, &camera, &params) {
             Ok(r) => r,
             Err(e) => {
-                out.push(Self::log(
-                    Log::ERROR,
-                    log_time,
-                    format!(
-                        "self-calibration refused ({kept} views of {captures} captures): {e}; the camera edge stays {}",
-                        if self.accepted > 0 {
-                            "the last accepted calibration"
-                        } else {
-                            "the nominal mount"
-                        }
-                    ),
-                ));
-                return;
+                let text = format!(
+                    "self-calibration refused ({kept} views of {captures} captures): {e}; the camera edge stays {}",
+                    if self.accepted > 0 {
+                        "the last accepted calibration"
+                    } else {
+                        "the nominal mount"
+                    }
+                );
+                out.push(Self::log(Log::ERROR, log_time, text.clone()));
+                return Outcome::Refused(text);
             }
         };
         let stamp = (log_time + self.config.latency)
@@ -585,37 +619,196 @@ impl CalibrationStage {
         if ok {
             self.tool0_from_camera = s.tool0_from_camera;
             self.accepted += 1;
-            out.push(Self::log(
-                Log::INFO,
-                log_time,
-                format!(
-                    "self-calibration accepted ({}, {} views, {} pairs): tool0_from_camera t = [{:.2}, {:.2}, {:.2}] mm, {:.3} deg; residual {:.4} deg / {:.3} mm, sigma {:.4} deg / {:.3} mm; now the camera edge",
-                    result.mode.name(),
-                    s.views,
-                    s.pairs,
-                    t.x,
-                    t.y,
-                    t.z,
-                    s.tool0_from_camera.rotation.angle().to_degrees(),
-                    s.residual_rot_deg,
-                    s.residual_trans_mm,
-                    s.sigma_rot_deg,
-                    s.sigma_trans_mm
-                ),
-            ));
+            let text = format!(
+                "self-calibration accepted ({}, {} views, {} pairs): tool0_from_camera t = [{:.2}, {:.2}, {:.2}] mm, {:.3} deg; residual {:.4} deg / {:.3} mm, sigma {:.4} deg / {:.3} mm; now the camera edge",
+                result.mode.name(),
+                s.views,
+                s.pairs,
+                t.x,
+                t.y,
+                t.z,
+                s.tool0_from_camera.rotation.angle().to_degrees(),
+                s.residual_rot_deg,
+                s.residual_trans_mm,
+                s.sigma_rot_deg,
+                s.sigma_trans_mm
+            );
+            out.push(Self::log(Log::INFO, log_time, text.clone()));
+            Outcome::Accepted(text)
         } else {
-            out.push(Self::log(
+            let text = format!(
+                "self-calibration not accepted: median residual {:.4} deg / {:.3} mm above the limits {} deg / {} mm (the hand poses and the images disagree: a mount that moved during the captures, a bad scene); the camera edge is unchanged; recapture",
+                s.residual_rot_deg,
+                s.residual_trans_mm,
+                self.config.max_residual_rot_deg,
+                self.config.max_residual_trans_mm
+            );
+            out.push(Self::log(Log::WARN, log_time, text.clone()));
+            Outcome::NotAccepted(text)
+        }
+    }
+}
+
+impl CalibrationStage {
+    /// A `/calibration/command` (module docs, "Commands").
+    fn on_command(&mut self, log_time: RobotTime, command: &str, out: &mut Vec<(String, Msg)>) {
+        match command.trim() {
+            c @ ("check" | "collect") => {
+                self.batch = Some(if c == "check" {
+                    Batch::Check
+                } else {
+                    Batch::Calibrate
+                });
+                self.views.clear();
+                self.pending.clear();
+                self.depth.clear();
+                self.captures = 0;
+                out.push(Self::log(
+                    Log::INFO,
+                    log_time,
+                    format!(
+                        "{c}: the next captures are {} views",
+                        if c == "check" {
+                            "drift check"
+                        } else {
+                            "calibration"
+                        }
+                    ),
+                ));
+            }
+            "solve" => {
+                // Everything captured so far is in (colour and depth arrive together).
+                self.advance(log_time, out);
+                let batch = self.batch.take();
+                let (state, kind, reason, text) = match batch {
+                    Some(Batch::Check) => {
+                        let (kind, reason, text) = self.check(log_time, out);
+                        ("check", kind, reason, text)
+                    }
+                    Some(Batch::Calibrate) => {
+                        let (kind, reason, text) = match self.calibrate(log_time, out) {
+                            Outcome::Accepted(t) => (TaskEvent::DONE, "accepted", t),
+                            Outcome::NotAccepted(t) => (TaskEvent::FAILED, "rejected", t),
+                            Outcome::Refused(t) => (TaskEvent::REFUSED, "refused", t),
+                        };
+                        ("calibrate", kind, reason, text)
+                    }
+                    None => (
+                        "solve",
+                        TaskEvent::REFUSED,
+                        "no_batch",
+                        "solve without check or collect: nothing to solve".to_owned(),
+                    ),
+                };
+                self.views.clear();
+                self.captures = 0;
+                out.push(self.answer(log_time, state, kind, reason, text));
+            }
+            "cancel" => {
+                self.batch = None;
+                self.views.clear();
+                self.pending.clear();
+                self.depth.clear();
+                self.captures = 0;
+            }
+            other => out.push(Self::log(
                 Log::WARN,
                 log_time,
                 format!(
-                    "self-calibration not accepted: median residual {:.4} deg / {:.3} mm above the limits {} deg / {} mm (the hand poses and the images disagree: a mount that moved during the captures, a bad scene); the camera edge is unchanged; recapture",
-                    s.residual_rot_deg,
-                    s.residual_trans_mm,
-                    self.config.max_residual_rot_deg,
-                    self.config.max_residual_trans_mm
+                    "unknown {} {other:?}: check, collect, solve or cancel",
+                    topics::CALIBRATION_COMMAND
                 ),
-            ));
+            )),
         }
+    }
+
+    /// The drift check of the batch's views against the camera edge in use.
+    fn check(
+        &mut self,
+        log_time: RobotTime,
+        out: &mut Vec<(String, Msg)>,
+    ) -> (u8, &'static str, String) {
+        let Some(camera) = self.camera else {
+            let text = format!(
+                "drift check refused: no camera_info on {}",
+                topics::CAMERA_COLOR_INFO
+            );
+            out.push(Self::log(Log::ERROR, log_time, text.clone()));
+            return (TaskEvent::REFUSED, "cannot_tell", text);
+        };
+        let params = DriftParams {
+            selfcal: self.selfcal_params(&camera),
+            ..DriftParams::default()
+        };
+        let report = check_drift(&self.views, &camera, &self.tool0_from_camera, &params);
+        let numbers = report.estimate.as_ref().map_or_else(String::new, |e| {
+            format!(
+                "; change {:.3} deg / {:.2} mm, thresholds {:.3} deg / {:.2} mm, detectable {:.3} deg / {:.2} mm",
+                e.rotation_deg,
+                e.translation_mm,
+                e.threshold_rot_deg,
+                e.threshold_trans_mm,
+                e.detectable_rot_deg,
+                e.detectable_trans_mm
+            )
+        });
+        let views = self.views.len();
+        let (level, kind, reason, text) = match &report.verdict {
+            DriftVerdict::Consistent => (
+                Log::INFO,
+                TaskEvent::INFO,
+                "consistent",
+                format!(
+                    "drift check: the camera mount is where the calibration says ({views} views){numbers}"
+                ),
+            ),
+            DriftVerdict::Drifted {
+                rotation_deg,
+                translation_mm,
+            } => (
+                Log::WARN,
+                TaskEvent::INFO,
+                "drifted",
+                format!(
+                    "drift check: the camera mount has moved by about {rotation_deg:.2} deg / {translation_mm:.1} mm ({views} views){numbers}: recalibrate"
+                ),
+            ),
+            DriftVerdict::CannotTell(why) => (
+                Log::WARN,
+                TaskEvent::REFUSED,
+                "cannot_tell",
+                format!("drift check cannot tell ({views} views): {why}{numbers}"),
+            ),
+        };
+        out.push(Self::log(level, log_time, text.clone()));
+        (kind, reason, text)
+    }
+
+    /// The answer on `/task/event` (task `calibration`).
+    fn answer(
+        &self,
+        log_time: RobotTime,
+        state: &str,
+        kind: u8,
+        reason: &str,
+        text: String,
+    ) -> (String, Msg) {
+        (
+            topics::TASK_EVENT.to_owned(),
+            Msg::TaskEvent(TaskEvent {
+                header: Header {
+                    stamp: (log_time + self.config.latency)
+                        .to_ros()
+                        .unwrap_or_default(),
+                    frame_id: MOUNT_PARENT_FRAME.to_owned(),
+                },
+                task: CALIBRATION_TASK.to_owned(),
+                state: state.to_owned(),
+                kind,
+                reason_code: reason.to_owned(),
+                text,
+            }),
+        )
     }
 }
 
@@ -710,6 +903,7 @@ impl Stage for CalibrationStage {
             topics::CAMERA_COLOR_IMAGE,
             topics::CAMERA_DEPTH_IMAGE,
             topics::CLOCK,
+            topics::CALIBRATION_COMMAND,
         ]
         .iter()
         .map(|t| (*t).to_owned())
@@ -728,6 +922,7 @@ impl Stage for CalibrationStage {
                 HandEyeCalibration::TYPE_NAME,
             ),
             (topics::ROSOUT.to_owned(), Log::TYPE_NAME),
+            (topics::TASK_EVENT.to_owned(), TaskEvent::TYPE_NAME),
         ]
     }
 
@@ -790,6 +985,12 @@ impl Stage for CalibrationStage {
                     return Err(unexpected(Image::TYPE_NAME));
                 };
                 self.on_depth(log_time, img, &mut out)?;
+            }
+            topics::CALIBRATION_COMMAND => {
+                let Msg::String(c) = msg else {
+                    return Err(unexpected(msgs::std_msgs::String::TYPE_NAME));
+                };
+                self.on_command(log_time, &c.data, &mut out);
             }
             _ => {}
         }

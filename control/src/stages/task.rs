@@ -37,7 +37,7 @@
 //!
 //! # Self-maintenance
 //! Before operating, the stage asks the calibration stage for a drift check
-//! (`/calibration/command` `check`, [`ViewPattern::DRIFT_CHECK_4`] views of the site's
+//! (`/calibration/command` `check`, calib's [`calib::selfcal::CHECK_MOTION`] views of the site's
 //! calibration target, `solve`) and waits for its verdict on `/task/event` (task
 //! `calibration`, state `check`, reason `consistent` / `drifted` / `cannot_tell`). On drift
 //! it runs the 18-view calibration motion (`collect`, views, `solve`) and continues when the
@@ -115,6 +115,12 @@ pub const CLAMP_REST_FOR: RobotDuration = RobotDuration::from_millis(300);
 /// A clamp stopped within this of the wire contact travel pressed on the wire (m); beyond
 /// `contact + CLAMP_CONTACT_TOLERANCE_M` it closed on nothing.
 pub const CLAMP_CONTACT_TOLERANCE_M: f64 = 1.5e-3;
+/// The drift check looks at this point above the calibration target's centre (m).
+pub const CHECK_LOOK_ABOVE_M: f64 = 0.15;
+/// Elevations of the view of the stored rod's handle, lowest first (deg).
+pub const RACK_LOOK_ELEVATIONS_DEG: [f64; 4] = [0.0, 20.0, 35.0, 50.0];
+/// The stored rod's measured handle axis may be this far off the vertical (rad): 3 deg.
+pub const RACK_AXIS_TOLERANCE_RAD: f64 = 3.0 * std::f64::consts::PI / 180.0;
 /// Via point spacing of a move replanned as a straight tool line (m).
 pub const DETOUR_LINE_STEP_M: f64 = 0.05;
 /// Preferred height of `tool0` above the arm base when the lift can choose (m): the arm
@@ -183,8 +189,6 @@ pub struct TaskConfig {
     pub nominal_tool0_from_camera: Isometry3<f64>,
     /// Check the calibration before operating and recalibrate on drift. Default true.
     pub self_maintenance: bool,
-    /// Drift check views. Default [`ViewPattern::DRIFT_CHECK_4`].
-    pub check_views: ViewPattern,
     /// Recalibration views. Default [`ViewPattern::CALIBRATION_18`].
     pub calibration_views: ViewPattern,
     /// Lift height for the calibration views (m). Default 0.4.
@@ -246,7 +250,6 @@ impl Default for TaskConfig {
             model: RobotModel::nominal(),
             nominal_tool0_from_camera: robot::camera_mount::nominal_tool0_from_camera(),
             self_maintenance: true,
-            check_views: ViewPattern::DRIFT_CHECK_4,
             calibration_views: ViewPattern::CALIBRATION_18,
             calibration_lift_m: 0.4,
             wind: WindGateParams::default(),
@@ -290,6 +293,11 @@ pub enum Step {
     CheckCalibration,
     /// 18 calibration views and the new calibration.
     Recalibrate,
+    /// Hang: the wrist camera level with the stored rod's handle.
+    LookRack,
+    /// Hang: handle captures and the stored rod's pose (the base's odometry drifts by
+    /// millimetres on the way; the gripper's capture is 5 mm).
+    CaptureRack,
     /// Hang: pre-grasp and grasp at the rack.
     GraspRack,
     /// Hang: lift the rod out of the rack and slide it out of the holders.
@@ -341,6 +349,8 @@ impl Step {
             Self::Stow => "stow",
             Self::CheckCalibration => "check_calibration",
             Self::Recalibrate => "recalibrate",
+            Self::LookRack => "look_rack",
+            Self::CaptureRack => "capture_rack",
             Self::GraspRack => "grasp_rack",
             Self::LiftOut => "lift_out",
             Self::RaiseForLook => "raise_for_look",
@@ -441,6 +451,15 @@ struct Capture {
     stamp: Time,
 }
 
+/// Where a handle is looked for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum HandleSite {
+    /// The stored rod in the rack (hang).
+    Rack,
+    /// The rod hung on the wire (remove).
+    Wire,
+}
+
 /// What the robot believes about the rod.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Rod {
@@ -488,6 +507,8 @@ pub struct TaskStage {
     wire_in_base: Option<(Point3<f64>, Vector3<f64>)>,
     hook_goal: Option<Isometry3<f64>>,
     grasp_goal: Option<Isometry3<f64>>,
+    /// `map_from_rod` of the stored rod as the wrist camera saw it.
+    stored_rod_seen: Option<Isometry3<f64>>,
     look_lift_m: Option<f64>,
     panoramic_tries: usize,
     recovery: Option<(Vec<Action>, Step)>,
@@ -570,6 +591,7 @@ impl TaskStage {
             wire_in_base: None,
             hook_goal: None,
             grasp_goal: None,
+            stored_rod_seen: None,
             look_lift_m: None,
             panoramic_tries: 0,
             recovery: None,
@@ -918,6 +940,8 @@ impl TaskStage {
     }
 
     fn lift_action(&self, from_m: f64, to_m: f64, label: &'static str) -> Action {
+        // Goals come from measured heights too, whose noise may step out of the travel.
+        let to_m = to_m.clamp(0.0, robot::kinematics::LIFT_TRAVEL_M);
         let seconds = (to_m - from_m).abs() / robot::kinematics::LIFT_SPEED_MAX_M_S
             + 2.0 * robot::kinematics::LIFT_SPEED_MAX_M_S / robot::kinematics::LIFT_ACCEL_MAX_M_S2;
         Action {
@@ -987,7 +1011,9 @@ impl TaskStage {
             (TaskKind::Check, Stow) => CheckCalibration,
             (TaskKind::Check, CheckCalibration) => Retreat,
             (_, Stow) if maintenance => CheckCalibration,
-            (TaskKind::Hang, Stow | CheckCalibration | Recalibrate) => GraspRack,
+            (TaskKind::Hang, Stow | CheckCalibration | Recalibrate) => LookRack,
+            (TaskKind::Hang, LookRack) => CaptureRack,
+            (TaskKind::Hang, CaptureRack) => GraspRack,
             (TaskKind::Remove, Stow | CheckCalibration | Recalibrate) => LookHandle,
             (TaskKind::Hang, GraspRack) => LiftOut,
             (TaskKind::Hang, LiftOut) => RaiseForLook,
@@ -1069,7 +1095,8 @@ impl TaskStage {
                 label: "panoramic frame",
             }]),
             Step::LookWire => self.plan_look_wire(),
-            Step::CaptureWire | Step::CaptureHandle => {
+            Step::LookRack => self.plan_look_handle(HandleSite::Rack),
+            Step::CaptureWire | Step::CaptureHandle | Step::CaptureRack => {
                 self.captures.clear();
                 let n = if step == Step::CaptureWire {
                     self.config.wire_captures
@@ -1086,7 +1113,7 @@ impl TaskStage {
                 self.clamp_action(ClampCommand::CLOSE, "close the clamp"),
             ]),
             Step::Release => self.plan_release(),
-            Step::LookHandle => self.plan_look_handle(),
+            Step::LookHandle => self.plan_look_handle(HandleSite::Wire),
             Step::GraspHandle => self.plan_grasp_handle(),
             Step::OpenClamp => Ok(vec![
                 self.clamp_action(ClampCommand::OPEN, "open the clamp"),
@@ -1119,22 +1146,43 @@ impl TaskStage {
         Ok(actions)
     }
 
-    /// Drift check (`check = true`) or calibration views of the site's target.
+    /// Drift check (`check = true`: calib's [`calib::selfcal::CHECK_MOTION`]) or calibration
+    /// views ([`TaskConfig::calibration_views`]) of the site's calibration target.
     fn plan_views(&mut self, check: bool) -> Result<Vec<Action>, Stop> {
-        let pattern = if check {
-            self.config.check_views
-        } else {
-            self.config.calibration_views
-        };
         let base_from_map = self.base_from_map()?;
         let centre = base_from_map * self.config.site.calibration_target;
         let normal = base_from_map.rotation * self.config.site.calibration_normal;
-        let cameras = pattern.camera_poses(&centre, &normal).ok_or_else(|| {
-            Stop::failed(
-                "bad_site_map",
-                "the calibration target's normal is vertical or zero",
-            )
-        })?;
+        let cameras = if check {
+            // The target frame: origin on the face, z the outward normal, x horizontal so
+            // that the images are upright (camera y towards the ground).
+            let look_at = centre + Vector3::new(0.0, 0.0, CHECK_LOOK_ABOVE_M);
+            let x = Vector3::z()
+                .cross(&normal)
+                .try_normalize(1e-9)
+                .ok_or_else(|| {
+                    Stop::failed(
+                        "bad_site_map",
+                        "the calibration target's normal is vertical",
+                    )
+                })?;
+            let target = Isometry3::from_parts(
+                nalgebra::Translation3::from(look_at.coords),
+                nalgebra::UnitQuaternion::from_rotation_matrix(
+                    &nalgebra::Rotation3::from_basis_unchecked(&[x, normal.cross(&x), normal]),
+                ),
+            );
+            calib::selfcal::drift::check_camera_poses(&target, &calib::selfcal::CHECK_MOTION)
+        } else {
+            self.config
+                .calibration_views
+                .camera_poses(&centre, &normal)
+                .ok_or_else(|| {
+                    Stop::failed(
+                        "bad_site_map",
+                        "the calibration target's normal is vertical or zero",
+                    )
+                })?
+        };
         let lift = self.config.calibration_lift_m;
         let q0 = self.q()?;
         let lift0 = self.lift()?;
@@ -1174,13 +1222,26 @@ impl TaskStage {
             actions.push(self.capture_action("view capture"));
             q = qk;
         }
+        // Back to stow and the lift height the step began at, so that the next step plans
+        // from the pose it would have started from without self-maintenance.
+        let stow = self.config.stow_rad;
+        let plan = self.plan_move(&world, lift, &q, &stow, "stow after the views")?;
+        actions.push(self.arm_action(&plan, "arm to stow"));
+        if (lift0 - lift).abs() > LIFT_ARRIVED_M {
+            self.check_lift_move(&stow, lift, lift0, &[])?;
+            actions.push(self.lift_action(lift, lift0, "lift back"));
+        }
         self.calibration_answer = None;
         actions.push(self.calibration_command("solve", Until::Calibration, "calibration answer"));
         Ok(actions)
     }
 
+    /// The stored rod: as seen by the wrist camera when it was, otherwise the site map's.
     fn stored_rod_in_base(&self) -> Result<Isometry3<f64>, Stop> {
-        Ok(self.base_from_map()? * self.config.site.map_from_stored_rod())
+        let map_from_rod = self
+            .stored_rod_seen
+            .unwrap_or_else(|| self.config.site.map_from_stored_rod());
+        Ok(self.base_from_map()? * map_from_rod)
     }
 
     fn plan_grasp_rack(&mut self) -> Result<Vec<Action>, Stop> {
@@ -1401,9 +1462,13 @@ impl TaskStage {
         Ok(vec![self.arm_action(&plan, "back off the rod")])
     }
 
-    fn handle_prior_in_base(&self) -> Result<(Point3<f64>, Vector3<f64>), Stop> {
+    fn handle_prior_in_base(&self, site: HandleSite) -> Result<(Point3<f64>, Vector3<f64>), Stop> {
+        let [hx, hy, hz] = robot::grounding_rod::HANDLE_CENTER_IN_ROD_M;
+        if site == HandleSite::Rack {
+            let rod = self.base_from_map()? * self.config.site.map_from_stored_rod();
+            return Ok((rod * Point3::new(hx, hy, hz), rod.rotation * Vector3::z()));
+        }
         if let Rod::OnWire(rod) = self.rod {
-            let [hx, hy, hz] = robot::grounding_rod::HANDLE_CENTER_IN_ROD_M;
             return Ok((rod * Point3::new(hx, hy, hz), rod.rotation * Vector3::z()));
         }
         // A rod hung on the prior wire by the hang flow.
@@ -1411,17 +1476,38 @@ impl TaskStage {
         let hook = poses::hook_goal(&point, &dir, &self.arm_base_point(0.0))
             .map_err(|e| Stop::failed("bad_geometry", e.to_string()))?;
         let rod = hook * rod_from_hook().inverse();
-        let [hx, hy, hz] = robot::grounding_rod::HANDLE_CENTER_IN_ROD_M;
         Ok((rod * Point3::new(hx, hy, hz), rod.rotation * Vector3::z()))
     }
 
-    fn plan_look_handle(&mut self) -> Result<Vec<Action>, Stop> {
+    /// Image up along `side`: a vertical handle spans the image's width.
+    fn handle_image_up(
+        &self,
+        site: HandleSite,
+        centre: &Point3<f64>,
+    ) -> Result<Vector3<f64>, Stop> {
+        match site {
+            HandleSite::Wire => Ok(self.wire_prior_in_base()?.1),
+            // Across the line of sight from the arm.
+            HandleSite::Rack => {
+                let mut sight = centre - self.arm_base_point(0.0);
+                sight.z = 0.0;
+                Vector3::z()
+                    .cross(&sight)
+                    .try_normalize(1e-9)
+                    .ok_or_else(|| Stop::failed("bad_site_map", "the rack is above the arm's base"))
+            }
+        }
+    }
+
+    fn plan_look_handle(&mut self, site: HandleSite) -> Result<Vec<Action>, Stop> {
         let q = self.q()?;
         let lift = self.lift()?;
-        let (centre, axis) = self.handle_prior_in_base()?;
-        let (_, wire_dir) = self.wire_prior_in_base()?;
-        // Image up along the wire: the vertical handle spans the image's width.
-        let (tool, look_lift, q_look) = self.look_goal(&centre, &axis, &wire_dir, &q)?;
+        let (centre, axis) = self.handle_prior_in_base(site)?;
+        let up = self.handle_image_up(site, &centre)?;
+        if site == HandleSite::Rack {
+            return self.plan_look_rack(&centre, &up, &q, lift);
+        }
+        let (tool, look_lift, q_look) = self.look_goal(&centre, &axis, &up, &q)?;
         let mut actions = Vec::new();
         if (look_lift - lift).abs() > LIFT_ARRIVED_M {
             self.check_lift_move(&q, lift, look_lift, &[])?;
@@ -1432,6 +1518,43 @@ impl TaskStage {
         let plan = self.plan_move(&world, look_lift, &q, &goal, "look at the handle")?;
         actions.push(self.arm_action(&plan, "camera level with the handle"));
         Ok(actions)
+    }
+
+    /// The stored rod stands beside the arm, below its base: the camera looks at its handle
+    /// from [`TaskConfig::standoff_m`] on the arm's side, from the lowest elevation of
+    /// [`RACK_LOOK_ELEVATIONS_DEG`] the arm reaches without collision at the current lift.
+    fn plan_look_rack(
+        &mut self,
+        centre: &Point3<f64>,
+        up: &Vector3<f64>,
+        q: &[f64; 6],
+        lift: f64,
+    ) -> Result<Vec<Action>, Stop> {
+        let mut towards_arm = self.arm_base_point(lift) - centre;
+        towards_arm.z = 0.0;
+        let towards_arm = towards_arm
+            .try_normalize(1e-9)
+            .ok_or_else(|| Stop::failed("bad_site_map", "the rack is below the arm's base"))?;
+        let mount = self.tool0_from_camera(self.now.as_nanos());
+        let world = self.world(lift)?;
+        let mut last = None;
+        for elevation_deg in RACK_LOOK_ELEVATIONS_DEG {
+            let e = elevation_deg.to_radians();
+            let eye =
+                centre + (towards_arm * e.cos() + Vector3::z() * e.sin()) * self.config.standoff_m;
+            let Some(camera) = robot::se3::world_from_camera_looking_at(&eye, centre, up) else {
+                continue;
+            };
+            let attempt = self
+                .ik_goal(lift, &(camera * mount.inverse()), q)
+                .and_then(|goal| self.plan_move(&world, lift, q, &goal, "look at the stored rod"));
+            match attempt {
+                Ok(plan) => return Ok(vec![self.arm_action(&plan, "camera on the stored rod")]),
+                Err(stop) => last = Some(stop),
+            }
+        }
+        Err(last
+            .unwrap_or_else(|| Stop::failed("bad_site_map", "no view of the stored rod's handle")))
     }
 
     fn plan_grasp_handle(&mut self) -> Result<Vec<Action>, Stop> {
@@ -1558,7 +1681,8 @@ impl TaskStage {
             Step::CheckCalibration | Step::Recalibrate => self.judge_calibration(step),
             Step::Panoramic => self.judge_panoramic(),
             Step::CaptureWire => self.judge_wire(),
-            Step::CaptureHandle => self.judge_handle(),
+            Step::CaptureHandle => self.judge_handle(HandleSite::Wire),
+            Step::CaptureRack => self.judge_handle(HandleSite::Rack),
             Step::CloseClamp => self.judge_clamp_closed(),
             Step::GraspHandle => self.judge_coupled(),
             Step::Rack => {
@@ -1793,9 +1917,13 @@ impl TaskStage {
         }
     }
 
-    fn judge_handle(&mut self) -> Result<Step, Stop> {
-        let (centre_prior, axis_prior) = self.handle_prior_in_base()?;
-        let (_, wire_dir) = self.wire_prior_in_base()?;
+    /// Fits the handle in the captures (`site`: the rack's stored rod or the hung rod).
+    fn judge_handle(&mut self, site: HandleSite) -> Result<Step, Stop> {
+        let (centre_prior, axis_prior) = self.handle_prior_in_base(site)?;
+        let look_again = match site {
+            HandleSite::Wire => Step::LookHandle,
+            HandleSite::Rack => Step::LookRack,
+        };
         let lift = self.lift()?;
         let Some((camera, rays)) = self.wrist.clone() else {
             return Err(Stop::failed(
@@ -1886,7 +2014,7 @@ impl TaskStage {
                     "handle_fit"
                 },
             };
-            return self.perception_refusal(Step::LookHandle, &e, &reasons);
+            return self.perception_refusal(look_again, &e, &reasons);
         }
         let n = fits.len() as f64;
         let centre = Point3::from(fits.iter().map(|f| f.0.coords).sum::<Vector3<f64>>() / n);
@@ -1896,9 +2024,45 @@ impl TaskStage {
             .map(|f| if f.1.dot(&reference) < 0.0 { -f.1 } else { f.1 })
             .sum::<Vector3<f64>>()
             .normalize();
-        let rod = poses::hung_rod_from_handle(&centre, &axis, &wire_dir, &self.arm_base_point(0.0))
-            .map_err(|e| Stop::failed("bad_geometry", e.to_string()))?;
-        self.rod = Rod::OnWire(rod);
+        let (rod, step, next) = match site {
+            HandleSite::Wire => {
+                let (_, wire_dir) = self.wire_prior_in_base()?;
+                let rod = poses::hung_rod_from_handle(
+                    &centre,
+                    &axis,
+                    &wire_dir,
+                    &self.arm_base_point(0.0),
+                )
+                .map_err(|e| Stop::failed("bad_geometry", e.to_string()))?;
+                self.rod = Rod::OnWire(rod);
+                (rod, Step::CaptureHandle, Step::GraspHandle)
+            }
+            HandleSite::Rack => {
+                // The rack holds the rod upright at its yaw: only the position is measured.
+                let tilt = axis.z.abs().clamp(-1.0, 1.0).acos();
+                if tilt > RACK_AXIS_TOLERANCE_RAD {
+                    let e = PerceptionError::LowConfidence {
+                        score: 0.0,
+                        threshold: 1.0,
+                        limiting: "handle_axis",
+                    };
+                    let why = format!(
+                        "the stored rod's handle axis is {:.1} deg off the vertical",
+                        tilt.to_degrees()
+                    );
+                    return self.perception_refusal(look_again, &e, &[why]);
+                }
+                let prior = self.base_from_map()? * self.config.site.map_from_stored_rod();
+                let rod = Isometry3::from_parts(
+                    nalgebra::Translation3::from(
+                        prior.translation.vector + (centre - centre_prior),
+                    ),
+                    prior.rotation,
+                );
+                self.stored_rod_seen = Some(self.base_from_map()?.inverse() * rod);
+                (rod, Step::CaptureRack, Step::GraspRack)
+            }
+        };
         let grasp = poses::grasp_tool0(&rod);
         self.grasp_goal = Some(grasp);
         self.pending.push((
@@ -1914,14 +2078,15 @@ impl TaskStage {
         ));
         self.pending.extend(self.event(
             TaskEvent::INFO,
-            Step::CaptureHandle.name(),
+            step.name(),
             "",
             format!(
-                "handle at ({:.4}, {:.4}, {:.4}) m in base_link from {} captures, disagreement {:.2} mm",
-                centre.x, centre.y, centre.z, fits.len(), disagreement * 1e3
+                "handle at ({:.4}, {:.4}, {:.4}) m in base_link from {} captures, disagreement {:.2} mm, {:.1} mm from the prior",
+                centre.x, centre.y, centre.z, fits.len(), disagreement * 1e3,
+                (centre - centre_prior).norm() * 1e3
             ),
         ));
-        Ok(Step::GraspHandle)
+        Ok(next)
     }
 
     fn judge_clamp_closed(&mut self) -> Result<Step, Stop> {

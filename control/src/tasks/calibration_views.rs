@@ -1,5 +1,5 @@
-//! Wrist-camera views of the calibration target for hand-eye (re)calibration and for the
-//! drift check, and the arm motion through them.
+//! Wrist-camera views of the calibration target for hand-eye (re)calibration (the drift
+//! check's views are calib's `selfcal::drift::CHECK_MOTION`), and the arm motion through them.
 //!
 //! # Views
 //! A look-at point `c` (the target's centre raised by [`ViewPattern::look_above_m`]) with the
@@ -58,20 +58,6 @@ impl ViewPattern {
         look_above_m: 0.15,
     };
 
-    /// The drift check's 4 views: larger tilts (22-30 deg) at azimuths 120 deg apart and
-    /// rolls within +-30 deg, so that each pair turns by ~25-50 deg about a well-spread axis
-    /// and a moved mount shows in the AX=XB residuals of every pair.
-    pub const DRIFT_CHECK_4: Self = Self {
-        views: 4,
-        tilt_min_deg: 22.0,
-        tilt_max_deg: 30.0,
-        azimuth_step_deg: 120.0,
-        distance_min_m: 0.40,
-        distance_max_m: 0.48,
-        roll_max_deg: 30.0,
-        look_above_m: 0.15,
-    };
-
     /// The camera poses (`frame_from_camera`, OpenCV optical axes) around a target at `centre`
     /// with outward normal `normal`, in the frame of both. `None` for a zero or vertical
     /// normal.
@@ -112,7 +98,7 @@ mod tests {
     fn views_look_at_the_target_from_the_documented_distances_and_tilts() {
         let centre = Point3::new(13.35, -1.3, 1.1);
         let normal = -Vector3::x();
-        for p in [ViewPattern::CALIBRATION_18, ViewPattern::DRIFT_CHECK_4] {
+        for p in [ViewPattern::CALIBRATION_18] {
             let poses = p.camera_poses(&centre, &normal).expect("views");
             assert_eq!(poses.len(), p.views);
             let target = centre + Vector3::new(0.0, 0.0, p.look_above_m);
