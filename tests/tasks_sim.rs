@@ -129,11 +129,24 @@ fn a_knocked_camera_is_noticed_recalibrated_and_the_rod_still_hung() {
     );
     // The new calibration, against the simulator's true (bumped) mount.
     let he = &v["hand_eye"][0];
-    assert!(he["rot_error_deg"].as_f64().unwrap_or(f64::NAN) < 0.2, "{v}");
-    assert!(he["trans_error_mm"].as_f64().unwrap_or(f64::NAN) < 2.0, "{v}");
+    assert!(
+        he["rot_error_deg"].as_f64().unwrap_or(f64::NAN) < 0.2,
+        "{v}"
+    );
+    assert!(
+        he["trans_error_mm"].as_f64().unwrap_or(f64::NAN) < 2.0,
+        "{v}"
+    );
     assert_eq!(v["success"], true, "{v}");
-    assert_eq!(v["unsafe_commands"].as_array().map(Vec::len), Some(0), "{v}");
-    assert!(v["operation_s"].as_f64().unwrap_or(f64::INFINITY) < 300.0, "{v}");
+    assert_eq!(
+        v["unsafe_commands"].as_array().map(Vec::len),
+        Some(0),
+        "{v}"
+    );
+    assert!(
+        v["operation_s"].as_f64().unwrap_or(f64::INFINITY) < 300.0,
+        "{v}"
+    );
 }
 
 #[test]
@@ -189,4 +202,28 @@ fn the_judge_catches_a_colliding_command_and_commands_in_high_wind() {
         "{reasons:?}"
     );
     assert!(reasons.iter().all(|r| r.contains("wind")), "{reasons:?}");
+}
+
+#[test]
+fn the_demo_recalibrates_hangs_and_removes() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let out = dir.path().join("demo");
+    let run = rodlog(&["demo", "--out", out.to_str().expect("utf-8"), "--no-viz"]);
+    let stdout = String::from_utf8_lossy(&run.stdout).into_owned();
+    assert!(
+        run.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    for needle in [
+        "calibration check: drifted",
+        "calibrate: accepted",
+        "hang done",
+        "remove done",
+    ] {
+        assert!(stdout.contains(needle), "no {needle:?} in:\n{stdout}");
+    }
+    let (ok, v) = judge(&out.join("demo.mcap"));
+    assert!(ok, "{v}");
+    assert_eq!(v["success"], true, "{v}");
 }

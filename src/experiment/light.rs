@@ -11,7 +11,9 @@ use anyhow::Result;
 
 use super::progress::Progress;
 use super::report::{Report, Results};
-use super::task_runs::{GroupSummary, RunSpec, outcome_table, run_all, runs_dir, summarize};
+use super::task_runs::{
+    GroupSummary, RunSpec, outcome_table, run_all, runs_dir, summarize, world_seed,
+};
 use super::{Settings, trial_seed};
 
 /// Trials per hour when `--trials` is not given.
@@ -32,7 +34,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     let mut seeds = Vec::new();
     for (h, hour) in HOURS.iter().enumerate() {
         for t in 0..trials {
-            let seed = trial_seed(settings.seed, 100 + h as u64, t as u64);
+            let seed = world_seed(trial_seed(settings.seed, 100 + h as u64, t as u64));
             seeds.push(seed);
             specs.push(RunSpec {
                 condition: format!(

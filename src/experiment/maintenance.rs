@@ -3,7 +3,7 @@
 //! false alarm.
 //!
 //! Each run is the `check` task: the drift check views of the calibration target (the
-//! calibration stage's [`calib::selfcal`] drift check on `DRIFT_CHECK_4` views) after a
+//! calibration stage's [`calib::selfcal`] drift check on `CHECK_MOTION` views) after a
 //! bump at 0.5 s of a set size, direction drawn from the seed: rotation-only bins, translation
 //! -only bins and combined bins spanning 0.25-3 deg and 1-10 mm, and unbumped runs for the
 //! false alarms. Detected = the verdict `drifted`; "cannot tell" is counted on its own (a
@@ -15,7 +15,7 @@ use serde::Serialize;
 
 use super::progress::Progress;
 use super::report::{Report, Results, Table, fmt_pct};
-use super::task_runs::{RunSpec, run_all, runs_dir};
+use super::task_runs::{RunSpec, run_all, runs_dir, world_seed};
 use super::{Settings, trial_seed};
 
 /// Runs per bin when `--trials` is not given.
@@ -71,7 +71,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     let mut seeds = Vec::new();
     for (b, (label, rot, trans)) in BINS.iter().enumerate() {
         for t in 0..trials {
-            let seed = trial_seed(settings.seed, 300 + b as u64, t as u64);
+            let seed = world_seed(trial_seed(settings.seed, 300 + b as u64, t as u64));
             seeds.push(seed);
             specs.push(RunSpec {
                 condition: (*label).to_owned(),

@@ -125,6 +125,12 @@ pub fn run(spec: &RunSpec, dir: &Path, keep: bool) -> Result<RunResult> {
     })
 }
 
+/// A trial seed as a scenario seed: TOML integers are `i64`, so the top bit is dropped.
+#[must_use]
+pub fn world_seed(trial_seed: u64) -> u64 {
+    trial_seed & (i64::MAX as u64)
+}
+
 /// Runs every spec (in parallel; results in spec order, whatever the thread count),
 /// ticking `progress` once per run.
 ///

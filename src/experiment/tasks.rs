@@ -16,7 +16,9 @@ use serde::Serialize;
 
 use super::progress::Progress;
 use super::report::{Report, Results, fmt_num};
-use super::task_runs::{GroupSummary, RunSpec, outcome_table, run_all, runs_dir, summarize};
+use super::task_runs::{
+    GroupSummary, RunSpec, outcome_table, run_all, runs_dir, summarize, world_seed,
+};
 use super::{Settings, trial_seed};
 
 /// Trials per task when `--trials` is not given (50 hangs + 50 removes, each with and
@@ -85,7 +87,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     let trials = settings.trials_or(DEFAULT_TRIALS);
     let camera_scale = CAMERA_SCALE * settings.image_scale;
     let seeds: Vec<u64> = (0..trials)
-        .map(|t| trial_seed(settings.seed, 12, t as u64))
+        .map(|t| world_seed(trial_seed(settings.seed, 12, t as u64)))
         .collect();
     let specs: Vec<RunSpec> = seeds
         .iter()

@@ -117,6 +117,10 @@ pub const CLAMP_REST_FOR: RobotDuration = RobotDuration::from_millis(300);
 pub const CLAMP_CONTACT_TOLERANCE_M: f64 = 1.5e-3;
 /// The drift check looks at this point above the calibration target's centre (m).
 pub const CHECK_LOOK_ABOVE_M: f64 = 0.15;
+/// Holds for a swaying handle before a look counts as failed (see [`SWAY_HOLD_S`]).
+pub const MAX_SWAY_HOLDS: usize = 8;
+/// One hold for a swaying handle (s).
+pub const SWAY_HOLD_S: f64 = 1.5;
 /// Elevations of the view of the stored rod's handle, lowest first (deg).
 pub const RACK_LOOK_ELEVATIONS_DEG: [f64; 4] = [0.0, 20.0, 35.0, 50.0];
 /// The stored rod's measured handle axis may be this far off the vertical (rad): 3 deg.
@@ -422,6 +426,8 @@ enum Until {
     Panoramic,
     /// The calibration stage's answer.
     Calibration,
+    /// This long after the action started (a hold).
+    Elapsed(RobotDuration),
 }
 
 /// One queued action.
@@ -509,6 +515,8 @@ pub struct TaskStage {
     grasp_goal: Option<Isometry3<f64>>,
     /// `map_from_rod` of the stored rod as the wrist camera saw it.
     stored_rod_seen: Option<Isometry3<f64>>,
+    /// Holds for a swaying handle so far.
+    sway_holds: usize,
     look_lift_m: Option<f64>,
     panoramic_tries: usize,
     recovery: Option<(Vec<Action>, Step)>,
@@ -592,6 +600,7 @@ impl TaskStage {
             hook_goal: None,
             grasp_goal: None,
             stored_rod_seen: None,
+            sway_holds: 0,
             look_lift_m: None,
             panoramic_tries: 0,
             recovery: None,
@@ -1549,7 +1558,19 @@ impl TaskStage {
                 .ik_goal(lift, &(camera * mount.inverse()), q)
                 .and_then(|goal| self.plan_move(&world, lift, q, &goal, "look at the stored rod"));
             match attempt {
-                Ok(plan) => return Ok(vec![self.arm_action(&plan, "camera on the stored rod")]),
+                Ok(plan) => {
+                    let mut actions = Vec::new();
+                    // The coupling probe: the empty clamp at full travel jumps to the rod's
+                    // open jaw when the end effector engages the stored rod.
+                    if self.clamp_m.unwrap_or(0.0) < CLAMP_TRAVEL_M - CLAMP_CONTACT_TOLERANCE_M {
+                        actions.push(self.clamp_action(
+                            ClampCommand::CLOSE,
+                            "close the empty clamp (coupling probe)",
+                        ));
+                    }
+                    actions.push(self.arm_action(&plan, "camera on the stored rod"));
+                    return Ok(actions);
+                }
                 Err(stop) => last = Some(stop),
             }
         }
@@ -1668,6 +1689,7 @@ impl TaskStage {
             self.phase = TaskKind::Remove;
             self.began = Some(self.now);
             self.attempts = 0;
+            self.sway_holds = 0;
             let out = self.event(
                 TaskEvent::INFO,
                 "started",
@@ -1685,6 +1707,7 @@ impl TaskStage {
             Step::CaptureRack => self.judge_handle(HandleSite::Rack),
             Step::CloseClamp => self.judge_clamp_closed(),
             Step::GraspHandle => self.judge_coupled(),
+            Step::GraspRack => self.judge_rack_coupled(),
             Step::Rack => {
                 self.rod = Rod::OnRack;
                 Ok(self.next_step(step))
@@ -2014,6 +2037,42 @@ impl TaskStage {
                     "handle_fit"
                 },
             };
+            let mut reasons = reasons;
+            if disagreement > self.config.handle_max_disagreement_m {
+                let why = format!(
+                    "the captures' handle centres disagree by {:.1} mm > {:.1} mm",
+                    disagreement * 1e3,
+                    self.config.handle_max_disagreement_m * 1e3
+                );
+                // A rod swaying with the wire: hold still and look again, a few times,
+                // before counting it as a failed look.
+                if fits.len() >= self.config.handle_captures.max(1)
+                    && self.sway_holds < MAX_SWAY_HOLDS
+                {
+                    self.sway_holds += 1;
+                    self.pending.extend(self.event(
+                        TaskEvent::INFO,
+                        look_again.name(),
+                        "holding_for_sway",
+                        format!("{why}: the rod sways; holding {SWAY_HOLD_S} s and looking again"),
+                    ));
+                    self.recovery = Some((
+                        vec![Action {
+                            outputs: Vec::new(),
+                            command: false,
+                            until: Until::Elapsed(
+                                RobotDuration::from_secs_f64(SWAY_HOLD_S)
+                                    .unwrap_or(RobotDuration::from_secs(2)),
+                            ),
+                            timeout: RobotDuration::from_secs(10),
+                            label: "hold for the sway",
+                        }],
+                        look_again,
+                    ));
+                    return Ok(Step::Recover);
+                }
+                reasons.push(why);
+            }
             return self.perception_refusal(look_again, &e, &reasons);
         }
         let n = fits.len() as f64;
@@ -2136,6 +2195,52 @@ impl TaskStage {
                 self.lift_action(lift, look_lift, "raise to look again"),
             ],
             Step::LookWire,
+        ));
+        Ok(Step::Recover)
+    }
+
+    /// The stored rod is coupled when the clamp joint, closed empty before the grasp, reads
+    /// the rod's open jaw now.
+    fn judge_rack_coupled(&mut self) -> Result<Step, Stop> {
+        let travel = self.clamp_m.unwrap_or(CLAMP_TRAVEL_M);
+        if travel <= CLAMP_CONTACT_TOLERANCE_M {
+            self.pending.extend(self.event(
+                TaskEvent::INFO,
+                Step::GraspRack.name(),
+                "",
+                format!(
+                    "coupled: the clamp joint reads the stored rod's open jaw at {:.1} mm",
+                    travel * 1e3
+                ),
+            ));
+            return Ok(self.next_step(Step::GraspRack));
+        }
+        self.attempts += 1;
+        let text = format!(
+            "the clamp joint reads {:.1} mm after the grasp, not the stored rod's open jaw: the gripper missed the handle",
+            travel * 1e3
+        );
+        if self.attempts >= self.config.attempts.max(1) {
+            return Err(Stop::failed(
+                "grasp_missed",
+                format!("{text}; {} attempts", self.attempts),
+            ));
+        }
+        self.pending
+            .extend(self.event(TaskEvent::INFO, Step::GraspRack.name(), "retry", text));
+        let q = self.q()?;
+        let lift = self.lift()?;
+        let tool = self.config.model.base_from_tool0(lift, &q);
+        let back = poses::along_own_z(&tool, -self.config.pregrasp_m);
+        let line = self.line_waypoints(lift, &q, &back)?;
+        let world = self
+            .world(lift)?
+            .allowing("tool", "stored_rod_handle")
+            .allowing("arm_wrist3_link", "stored_rod_handle");
+        let plan = self.plan(&world, lift, &q, &line, "back off after a missed grasp")?;
+        self.recovery = Some((
+            vec![self.arm_action(&plan, "back off the stored rod")],
+            Step::LookRack,
         ));
         Ok(Step::Recover)
     }
@@ -2274,6 +2379,7 @@ impl TaskStage {
     fn action_done(&self, running: &Running) -> bool {
         match running.action.until {
             Until::Issued => true,
+            Until::Elapsed(d) => self.now.as_nanos() >= running.started.as_nanos() + d.as_nanos(),
             Until::Arm(goal) => {
                 self.arm_at_rest
                     && self

@@ -1,0 +1,51 @@
+//! `rodlog experiment tasks|maintenance` (issue 12) smoke runs: one trial each, judged
+//! against the simulator's truth, write report.md, results.json (every run, seeds) and the
+//! plots. The full experiments run outside CI (README).
+
+use std::path::Path;
+use std::process::Command;
+
+fn run_experiment(name: &str, out: &Path) -> serde_json::Value {
+    let out_s = out.display().to_string();
+    let run = Command::new(env!("CARGO_BIN_EXE_rodlog"))
+        .args(["experiment", name, "--trials", "1", "--out", &out_s])
+        .output()
+        .expect("run rodlog");
+    assert!(
+        run.status.success(),
+        "{name}: {}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(out.join("report.md").is_file());
+    let results: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).expect("json"))
+            .expect("results.json parses");
+    assert_eq!(results["experiment"], name);
+    results
+}
+
+#[test]
+fn task_experiments_smoke_runs() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let tasks = run_experiment("tasks", &tmp.path().join("tasks"));
+    // One seed: hang and remove, each with and without self-calibration.
+    let runs = tasks["sections"]["runs"].as_array().expect("runs");
+    assert_eq!(runs.len(), 4, "{tasks}");
+    assert!(runs.iter().all(|r| r["outcome"].is_string()), "{tasks}");
+    assert_eq!(tasks["sections"]["unsafe_commands"], 0, "{tasks}");
+    for stem in ["success", "time"] {
+        let p = tmp.path().join("tasks/plots").join(format!("{stem}.png"));
+        assert!(p.is_file(), "{} missing", p.display());
+    }
+
+    let maintenance = run_experiment("maintenance", &tmp.path().join("maintenance"));
+    let bins = maintenance["sections"]["bins"].as_array().expect("bins");
+    assert_eq!(bins.len(), 13, "{maintenance}");
+    assert!(bins.iter().all(|b| b["runs"] == 1), "{maintenance}");
+    // A 3 deg + 10 mm knock is never missed.
+    let big = bins
+        .iter()
+        .find(|b| b["bin"] == "3 deg + 10 mm")
+        .expect("bin");
+    assert_eq!(big["drifted"], 1, "{maintenance}");
+}
