@@ -1706,8 +1706,8 @@ impl TaskStage {
             Step::CaptureHandle => self.judge_handle(HandleSite::Wire),
             Step::CaptureRack => self.judge_handle(HandleSite::Rack),
             Step::CloseClamp => self.judge_clamp_closed(),
-            Step::GraspHandle => self.judge_coupled(),
-            Step::GraspRack => self.judge_rack_coupled(),
+            Step::GraspHandle => self.judge_grasp(HandleSite::Wire),
+            Step::GraspRack => self.judge_grasp(HandleSite::Rack),
             Step::Rack => {
                 self.rod = Rod::OnRack;
                 Ok(self.next_step(step))
@@ -2199,26 +2199,51 @@ impl TaskStage {
         Ok(Step::Recover)
     }
 
-    /// The stored rod is coupled when the clamp joint, closed empty before the grasp, reads
-    /// the rod's open jaw now.
-    fn judge_rack_coupled(&mut self) -> Result<Step, Stop> {
-        let travel = self.clamp_m.unwrap_or(CLAMP_TRAVEL_M);
-        if travel <= CLAMP_CONTACT_TOLERANCE_M {
+    /// Whether the end effector coupled the rod at `site`: the clamp joint then reads the
+    /// rod's jaw (the stored rod's open jaw; for the hung rod, its jaw on the wire; the
+    /// empty clamp was closed to full travel before the rack grasp). A miss backs off along
+    /// the tool's -z and looks again, up to [`TaskConfig::attempts`].
+    fn judge_grasp(&mut self, site: HandleSite) -> Result<Step, Stop> {
+        let (step, jaw_m, jaw, handle, look_again) = match site {
+            HandleSite::Rack => (
+                Step::GraspRack,
+                0.0,
+                "the stored rod's open jaw",
+                "stored_rod_handle",
+                Step::LookRack,
+            ),
+            HandleSite::Wire => (
+                Step::GraspHandle,
+                WIRE_CONTACT_TRAVEL_M,
+                "the rod's jaw on the wire",
+                "hung_rod_handle",
+                Step::LookHandle,
+            ),
+        };
+        if let Some(travel) = self
+            .clamp_m
+            .filter(|t| (t - jaw_m).abs() <= CLAMP_CONTACT_TOLERANCE_M)
+        {
             self.pending.extend(self.event(
                 TaskEvent::INFO,
-                Step::GraspRack.name(),
+                step.name(),
                 "",
                 format!(
-                    "coupled: the clamp joint reads the stored rod's open jaw at {:.1} mm",
+                    "coupled: the clamp joint reads {jaw} at {:.1} mm",
                     travel * 1e3
                 ),
             ));
-            return Ok(self.next_step(Step::GraspRack));
+            // The hung rod stays clamped on the wire (Rod::OnWire) until it is unhooked.
+            return Ok(self.next_step(step));
         }
         self.attempts += 1;
+        let reading = self.clamp_m.map_or_else(
+            || "has no reading".to_owned(),
+            |t| format!("reads {:.1} mm", t * 1e3),
+        );
         let text = format!(
-            "the clamp joint reads {:.1} mm after the grasp, not the stored rod's open jaw: the gripper missed the handle",
-            travel * 1e3
+            "the clamp joint {reading} after the grasp, not {jaw} at {:.1} mm: the gripper missed the handle",
+            jaw_m * 1e3
         );
         if self.attempts >= self.config.attempts.max(1) {
             return Err(Stop::failed(
@@ -2227,7 +2252,7 @@ impl TaskStage {
             ));
         }
         self.pending
-            .extend(self.event(TaskEvent::INFO, Step::GraspRack.name(), "retry", text));
+            .extend(self.event(TaskEvent::INFO, step.name(), "retry", text));
         let q = self.q()?;
         let lift = self.lift()?;
         let tool = self.config.model.base_from_tool0(lift, &q);
@@ -2235,58 +2260,12 @@ impl TaskStage {
         let line = self.line_waypoints(lift, &q, &back)?;
         let world = self
             .world(lift)?
-            .allowing("tool", "stored_rod_handle")
-            .allowing("arm_wrist3_link", "stored_rod_handle");
-        let plan = self.plan(&world, lift, &q, &line, "back off after a missed grasp")?;
-        self.recovery = Some((
-            vec![self.arm_action(&plan, "back off the stored rod")],
-            Step::LookRack,
-        ));
-        Ok(Step::Recover)
-    }
-
-    fn judge_coupled(&mut self) -> Result<Step, Stop> {
-        let travel = self.clamp_m.unwrap_or(0.0);
-        if (travel - WIRE_CONTACT_TRAVEL_M).abs() <= CLAMP_CONTACT_TOLERANCE_M {
-            // Held but still clamped on the wire (Rod::OnWire) until it is unhooked.
-            self.pending.extend(self.event(
-                TaskEvent::INFO,
-                Step::GraspHandle.name(),
-                "",
-                format!(
-                    "coupled: the clamp joint reads the rod's jaw at {:.1} mm",
-                    travel * 1e3
-                ),
-            ));
-            return Ok(Step::OpenClamp);
-        }
-        self.attempts += 1;
-        let text = format!(
-            "the clamp joint reads {:.1} mm after the grasp, not the rod's jaw at {:.1} mm: the gripper missed the handle",
-            travel * 1e3,
-            WIRE_CONTACT_TRAVEL_M * 1e3
-        );
-        if self.attempts >= self.config.attempts.max(1) {
-            return Err(Stop::failed(
-                "grasp_missed",
-                format!("{text}; {} attempts", self.attempts),
-            ));
-        }
-        self.pending
-            .extend(self.event(TaskEvent::INFO, Step::GraspHandle.name(), "retry", text));
-        let q = self.q()?;
-        let lift = self.lift()?;
-        let tool = self.config.model.base_from_tool0(lift, &q);
-        let back = poses::along_own_z(&tool, -self.config.pregrasp_m);
-        let line = self.line_waypoints(lift, &q, &back)?;
-        let world = self
-            .world(lift)?
-            .allowing("tool", "hung_rod_handle")
-            .allowing("arm_wrist3_link", "hung_rod_handle");
+            .allowing("tool", handle)
+            .allowing("arm_wrist3_link", handle);
         let plan = self.plan(&world, lift, &q, &line, "back off after a missed grasp")?;
         self.recovery = Some((
             vec![self.arm_action(&plan, "back off the handle")],
-            Step::LookHandle,
+            look_again,
         ));
         Ok(Step::Recover)
     }
