@@ -9,11 +9,8 @@
 
 use anyhow::Result;
 
-use super::progress::Progress;
 use super::report::{Report, Results};
-use super::task_runs::{
-    GroupSummary, RunSpec, outcome_table, run_all, runs_dir, summarize, world_seed,
-};
+use super::task_runs::{RunSpec, outcome_table, run_conditions, world_seed};
 use super::{Settings, trial_seed};
 
 /// Trials per hour when `--trials` is not given.
@@ -53,20 +50,7 @@ pub fn run(settings: &Settings) -> Result<()> {
             });
         }
     }
-    let progress = Progress::new("light", specs.len() as u64);
-    let results = run_all(&specs, &runs_dir(&settings.out)?, &progress)?;
-    progress.finish();
-    let groups: Vec<GroupSummary> = specs
-        .iter()
-        .step_by(trials)
-        .map(|s| {
-            let runs: Vec<_> = results
-                .iter()
-                .filter(|r| r.spec.condition == s.condition)
-                .collect();
-            summarize(&s.condition, &runs)
-        })
-        .collect();
+    let (_, groups) = run_conditions("light", &specs, trials, &settings.out)?;
     let mut report = Report::new("Light: hang success and time by hour of day");
     report.paragraph(&format!(
         "{trials} seeded hangs per hour, self-maintenance on, no bump, mean wind 0-1.5 m/s, wrist \

@@ -181,6 +181,34 @@ pub struct GroupSummary {
     pub median_hook_fraction: f64,
 }
 
+/// Runs `specs` (conditions in blocks of `trials`, as the experiments build them) with a
+/// progress bar named `name`, and summarises each condition in order.
+///
+/// # Errors
+/// Those of [`run_all`] and [`runs_dir`].
+pub fn run_conditions(
+    name: &str,
+    specs: &[RunSpec],
+    trials: usize,
+    out: &super::OutputDir,
+) -> Result<(Vec<RunResult>, Vec<GroupSummary>)> {
+    let progress = super::progress::Progress::new(name, specs.len() as u64);
+    let results = run_all(specs, &runs_dir(out)?, &progress)?;
+    progress.finish();
+    let groups = specs
+        .iter()
+        .step_by(trials.max(1))
+        .map(|s| {
+            let runs: Vec<_> = results
+                .iter()
+                .filter(|r| r.spec.condition == s.condition)
+                .collect();
+            summarize(&s.condition, &runs)
+        })
+        .collect();
+    Ok((results, groups))
+}
+
 /// Summarises `runs` under `condition`.
 #[must_use]
 pub fn summarize(condition: &str, runs: &[&RunResult]) -> GroupSummary {

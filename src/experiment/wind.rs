@@ -9,11 +9,8 @@
 
 use anyhow::Result;
 
-use super::progress::Progress;
 use super::report::{Report, Results, fmt_num};
-use super::task_runs::{
-    GroupSummary, RunSpec, outcome_table, run_all, runs_dir, summarize, world_seed,
-};
+use super::task_runs::{RunSpec, outcome_table, run_conditions, world_seed};
 use super::{Settings, trial_seed};
 
 /// Trials per speed when `--trials` is not given.
@@ -47,20 +44,7 @@ pub fn run(settings: &Settings) -> Result<()> {
             });
         }
     }
-    let progress = Progress::new("wind", specs.len() as u64);
-    let results = run_all(&specs, &runs_dir(&settings.out)?, &progress)?;
-    progress.finish();
-    let groups: Vec<GroupSummary> = specs
-        .iter()
-        .step_by(trials)
-        .map(|s| {
-            let runs: Vec<_> = results
-                .iter()
-                .filter(|r| r.spec.condition == s.condition)
-                .collect();
-            summarize(&s.condition, &runs)
-        })
-        .collect();
+    let (results, groups) = run_conditions("wind", &specs, trials, &settings.out)?;
     let max_wind: Vec<f64> = specs
         .iter()
         .step_by(trials)
