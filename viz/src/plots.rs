@@ -391,21 +391,79 @@ fn with_legend_room(r: Range<f64>) -> Range<f64> {
     r.start..r.end + LEGEND_ROOM * span
 }
 
-/// Writes category `i`'s name under the x axis at `x = i` (plotters' numeric axes cannot
-/// place labels at chosen positions, so the mesh draws none and these go on the root).
+/// Margin around every chart (pixels).
+const CHART_MARGIN: u32 = 14;
+/// Width of the y label area (pixels).
+const Y_LABEL_AREA: u32 = 72;
+/// Category label font size and the height of one label line (pixels).
+const CATEGORY_FONT: u32 = 15;
+const CATEGORY_LINE: u32 = 18;
+
+/// Category names broken into lines at spaces so that no line is wider than `max_width`
+/// (as `width` measures it); a single word wider than that stays on its own line.
+fn wrap_labels(names: &[String], max_width: f64, width: impl Fn(&str) -> f64) -> Vec<Vec<String>> {
+    names
+        .iter()
+        .map(|name| {
+            let mut lines: Vec<String> = Vec::new();
+            for word in name.split_whitespace() {
+                match lines.last_mut() {
+                    Some(line) if width(&format!("{line} {word}")) <= max_width => {
+                        line.push(' ');
+                        line.push_str(word);
+                    }
+                    _ => lines.push(word.to_string()),
+                }
+            }
+            if lines.is_empty() {
+                lines.push(String::new());
+            }
+            lines
+        })
+        .collect()
+}
+
+/// The category labels of a plot with `names` on `root`, wrapped to the room each category
+/// has along the x axis, and the label area height they need below the axis.
+fn category_labels<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    names: &[String],
+) -> (Vec<Vec<String>>, u32) {
+    let font = TextStyle::from((FONT, CATEGORY_FONT).into_font());
+    let plot_width = root
+        .dim_in_pixel()
+        .0
+        .saturating_sub(2 * CHART_MARGIN + Y_LABEL_AREA);
+    // 90% of a category's width, so neighbours keep a gap.
+    let room = 0.9 * f64::from(plot_width) / names.len().max(1) as f64;
+    let width = |text: &str| {
+        root.estimate_text_size(text, &font)
+            .map_or(f64::INFINITY, |(w, _)| f64::from(w))
+    };
+    let lines = wrap_labels(names, room, width);
+    let deepest = lines.iter().map(Vec::len).max().unwrap_or(1) as u32;
+    // Room for the lines plus the axis description below them.
+    (lines, 30 + CATEGORY_LINE * deepest)
+}
+
+/// Writes category `i`'s label lines under the x axis at `x = i` (plotters' numeric axes
+/// cannot place labels at chosen positions, so the mesh draws none and these go on the root).
 fn draw_category_labels<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     chart: &ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
-    names: &[String],
+    labels: &[Vec<String>],
     y_axis: f64,
 ) -> Result<(), String> {
-    let style = TextStyle::from((FONT, 15).into_font())
+    let style = TextStyle::from((FONT, CATEGORY_FONT).into_font())
         .color(&BLACK)
         .pos(Pos::new(HPos::Center, VPos::Top));
-    for (i, name) in names.iter().enumerate() {
+    for (i, lines) in labels.iter().enumerate() {
         let (px, py) = chart.backend_coord(&(i as f64, y_axis));
-        root.draw(&Text::new(name.as_str(), (px, py + 6), style.clone()))
-            .map_err(msg)?;
+        for (k, line) in lines.iter().enumerate() {
+            let y = py + 6 + (CATEGORY_LINE as i32) * k as i32;
+            root.draw(&Text::new(line.as_str(), (px, y), style.clone()))
+                .map_err(msg)?;
+        }
     }
     Ok(())
 }
@@ -429,11 +487,12 @@ impl Draw for BoxPlot {
             });
         let xr = category_axis(self.conditions.len());
         let yr = with_legend_room(padded(lo, hi, lo >= 0.0));
+        let (labels, label_area) = category_labels(root, &self.conditions);
         let mut chart = ChartBuilder::on(root)
             .caption(&self.title, (FONT, 24))
-            .margin(14)
-            .x_label_area_size(48)
-            .y_label_area_size(72)
+            .margin(CHART_MARGIN)
+            .x_label_area_size(label_area)
+            .y_label_area_size(Y_LABEL_AREA)
             .build_cartesian_2d(xr, yr.clone())
             .map_err(msg)?;
         chart
@@ -447,7 +506,7 @@ impl Draw for BoxPlot {
             .axis_desc_style((FONT, 17))
             .draw()
             .map_err(msg)?;
-        draw_category_labels(root, &chart, &self.conditions, yr.start)?;
+        draw_category_labels(root, &chart, &labels, yr.start)?;
         let m = self.methods.len();
         for (j, name) in self.methods.iter().enumerate() {
             let c = colour(j);
@@ -528,9 +587,9 @@ impl Draw for LinePlot {
         let (y0, y1) = range(&mut ys.into_iter());
         let mut chart = ChartBuilder::on(root)
             .caption(&self.title, (FONT, 24))
-            .margin(14)
+            .margin(CHART_MARGIN)
             .x_label_area_size(48)
-            .y_label_area_size(72)
+            .y_label_area_size(Y_LABEL_AREA)
             .build_cartesian_2d(padded(x0, x1, false), padded(y0, y1, y0 >= 0.0))
             .map_err(msg)?;
         chart
@@ -600,11 +659,12 @@ impl Draw for BarChart {
             });
         let xr = category_axis(self.categories.len());
         let yr = with_legend_room(padded(lo, hi, true));
+        let (labels, label_area) = category_labels(root, &self.categories);
         let mut chart = ChartBuilder::on(root)
             .caption(&self.title, (FONT, 24))
-            .margin(14)
-            .x_label_area_size(48)
-            .y_label_area_size(72)
+            .margin(CHART_MARGIN)
+            .x_label_area_size(label_area)
+            .y_label_area_size(Y_LABEL_AREA)
             .build_cartesian_2d(xr, yr.clone())
             .map_err(msg)?;
         chart
@@ -618,7 +678,7 @@ impl Draw for BarChart {
             .axis_desc_style((FONT, 17))
             .draw()
             .map_err(msg)?;
-        draw_category_labels(root, &chart, &self.categories, yr.start)?;
+        draw_category_labels(root, &chart, &labels, yr.start)?;
         let m = self.series.len();
         for (j, (name, values)) in self.series.iter().enumerate() {
             let c = colour(j);
@@ -664,6 +724,25 @@ mod tests {
         assert_eq!((s.whisker_low, s.whisker_high), (1.0, 4.0));
         assert_eq!(quantile_sorted(&[0.0, 1.0], 0.25), Some(0.25));
         assert!(BoxStats::of(&[f64::NAN]).is_none());
+    }
+
+    #[test]
+    fn long_category_labels_wrap_at_spaces_to_fit_their_slot() {
+        let names: Vec<String> = ["none", "0.5 deg + 3 mm", "trans 10 mm", "verylongword"]
+            .map(String::from)
+            .to_vec();
+        // One unit per character: a slot 9 characters wide.
+        let lines = wrap_labels(&names, 9.0, |t| t.chars().count() as f64);
+        assert_eq!(lines[0], ["none"]);
+        assert_eq!(lines[1], ["0.5 deg +", "3 mm"]);
+        assert_eq!(lines[2], ["trans 10", "mm"]);
+        assert_eq!(lines[3], ["verylongword"]);
+        assert!(
+            lines
+                .iter()
+                .flatten()
+                .all(|l| l.len() <= 9 || !l.contains(' '))
+        );
     }
 
     #[test]
