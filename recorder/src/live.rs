@@ -150,9 +150,17 @@ fn item(env: Envelope) -> SinkItem {
 }
 
 /// A flag set when Ctrl-C arrives, for loops that do not run on tokio (the as-fast-as-possible
-/// recording): a background thread with a small runtime waits for the signal. `None` if
-/// that runtime cannot start (Ctrl-C then ends the process; the file stays recoverable).
+/// recording): one background thread per process, with a small runtime, waits for the signal;
+/// every caller shares its flag (an experiment records hundreds of runs in one process, and a
+/// listener per recording would leave a parked thread behind each). Once set it stays set:
+/// Ctrl-C stops this recording and every later one in the process. `None` if that runtime
+/// cannot start (Ctrl-C then ends the process; the file stays recoverable).
 pub fn ctrl_c_flag() -> Option<Arc<AtomicBool>> {
+    static FLAG: std::sync::OnceLock<Option<Arc<AtomicBool>>> = std::sync::OnceLock::new();
+    FLAG.get_or_init(spawn_ctrl_c_listener).clone()
+}
+
+fn spawn_ctrl_c_listener() -> Option<Arc<AtomicBool>> {
     let flag = Arc::new(AtomicBool::new(false));
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()

@@ -134,22 +134,62 @@ pub fn world_seed(trial_seed: u64) -> u64 {
 /// Runs every spec (in parallel; results in spec order, whatever the thread count),
 /// ticking `progress` once per run.
 ///
+/// The runs go to plain worker threads (as many as rayon's global pool has) pulling from a
+/// shared index, not to rayon: each run installs its own single-thread pool
+/// ([`RecordOptions::threads`]), and `install` called from a worker of another pool makes that
+/// worker steal further runs while it waits, stacking whole simulations on one thread's stack
+/// until it overflows (seen at 200 runs).
+///
 /// # Errors
-/// The first run that could not be simulated.
+/// The first run (in spec order) that could not be simulated.
 pub fn run_all(
     specs: &[RunSpec],
     dir: &Path,
     progress: &super::progress::Progress,
 ) -> Result<Vec<RunResult>> {
-    use rayon::prelude::*;
-    specs
-        .par_iter()
-        .map(|s| {
-            let r = run(s, dir, false);
-            progress.inc(1);
-            r
-        })
-        .collect()
+    use std::sync::Mutex;
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    let next = AtomicUsize::new(0);
+    let failed = AtomicBool::new(false);
+    let results: Mutex<Vec<Option<Result<RunResult>>>> =
+        Mutex::new((0..specs.len()).map(|_| None).collect());
+    let workers = rayon::current_num_threads().clamp(1, specs.len().max(1));
+    std::thread::scope(|scope| {
+        for _ in 0..workers {
+            scope.spawn(|| {
+                while !failed.load(Ordering::Relaxed) {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(spec) = specs.get(i) else { break };
+                    let r = run(spec, dir, false);
+                    if r.is_err() {
+                        failed.store(true, Ordering::Relaxed);
+                    }
+                    progress.inc(1);
+                    if let Ok(mut slots) = results.lock() {
+                        slots[i] = Some(r);
+                    }
+                }
+            });
+        }
+    });
+    let slots = results
+        .into_inner()
+        .map_err(|_| anyhow::anyhow!("a run's worker thread panicked"))?;
+    let mut out = Vec::with_capacity(specs.len());
+    for (spec, slot) in specs.iter().zip(slots) {
+        match slot {
+            Some(r) => out.push(r?),
+            // Indices are claimed in order and every claimed run finishes, so a gap only
+            // follows the failure that stopped the workers, which `r?` has returned.
+            None => anyhow::bail!(
+                "run {} {} seed {} was not simulated because another run failed",
+                spec.condition,
+                spec.task,
+                spec.seed
+            ),
+        }
+    }
+    Ok(out)
 }
 
 /// Outcome counts and times of a group of runs.
