@@ -227,3 +227,60 @@ fn the_demo_recalibrates_hangs_and_removes() {
     assert!(ok, "{v}");
     assert_eq!(v["success"], true, "{v}");
 }
+
+#[test]
+fn a_dusk_refusal_replays_identically_and_a_what_if_is_labelled_open_loop() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let rec = dir.path().join("dusk.mcap");
+    record("hang-dusk", &rec, &["panoramic.scale=0.5"]);
+    let (ok, v) = judge(&rec);
+    assert!(ok, "{v}");
+    assert_eq!(v["outcome"], "refused", "{v}");
+    assert_eq!(v["reason_code"], "calibration_unverifiable", "{v}");
+    assert_eq!(v["rod_state"], "on_rack", "{v}");
+    assert_eq!(
+        v["unsafe_commands"].as_array().map(Vec::len),
+        Some(0),
+        "{v}"
+    );
+    let rec_s = rec.to_str().expect("utf-8");
+    let check = rodlog(&["replay", rec_s, "--check"]);
+    assert!(
+        check.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&check.stdout),
+        String::from_utf8_lossy(&check.stderr)
+    );
+    // What if the task had skipped the check? Open-loop: the recorded world never saw the
+    // new commands, and the what-if file says from when.
+    let whatif = dir.path().join("whatif.mcap");
+    let out = rodlog(&[
+        "replay",
+        rec_s,
+        "--set",
+        "task.self_maintenance=false",
+        "--out",
+        whatif.to_str().expect("utf-8"),
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    assert!(text.contains("open-loop from"), "{text}");
+    assert!(text.contains("task.self_maintenance=false"), "{text}");
+    let log = rodlog(&["log", whatif.to_str().expect("utf-8")]);
+    let log_text = String::from_utf8_lossy(&log.stdout);
+    assert!(log_text.contains("self-maintenance off"), "{log_text}");
+    assert!(!log_text.contains("calibration_unverifiable"), "{log_text}");
+    let rrd = dir.path().join("whatif.rrd");
+    let view = rodlog(&[
+        "view",
+        whatif.to_str().expect("utf-8"),
+        "--out",
+        rrd.to_str().expect("utf-8"),
+    ]);
+    assert!(
+        view.status.success(),
+        "{}",
+        String::from_utf8_lossy(&view.stderr)
+    );
+    assert!(std::fs::metadata(&rrd).map(|m| m.len()).unwrap_or(0) > 0);
+}

@@ -106,6 +106,22 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
         .map(|m| (m.name.clone(), m.entries.clone()))
         .collect();
     sink.log_metadata(&records)?;
+    if let Some(w) = reader
+        .metadata()
+        .iter()
+        .find(|m| m.name == replay::whatif::WHATIF_RECORD)
+    {
+        let get = |k: &str| w.entries.get(k).map_or("", String::as_str);
+        let open_loop_from_ns = (get("open_loop") == "true")
+            .then(|| get("open_loop_from_ns").parse::<u64>().ok())
+            .flatten();
+        sink.log_whatif(
+            get("source"),
+            get("changed_parameters"),
+            open_loop_from_ns,
+            get("first_divergent_command_topic"),
+        )?;
+    }
     let urdf = reader
         .attachments()
         .iter()

@@ -17,6 +17,7 @@
 //! | `plots/...` | wind, illuminance (measured and truth), joint positions, calibration residuals and sigmas, lift command | `Scalars` (+ `SeriesLines` names) |
 //! | `log/{rosout,task,calibration,commands,sim}` | `/rosout`, `/task/event`, `/calibration/hand_eye`, command topics, `/sim/rod_state` | `TextLog` |
 //! | `recording/metadata` | MCAP metadata records | `TextDocument` (markdown) |
+//! | `recording/whatif`, `log/whatif` | a what-if file's `whatif` record (`rodlog replay --out`) | `TextDocument` (static banner), `TextLog` WARN at the open-loop time |
 //!
 //! # Time
 //! Every message is logged at its MCAP `log_time` (robot clock, DESIGN.md section 2) on the
@@ -85,6 +86,8 @@ pub const MATCHES_INLIERS: &str = "matches/inliers";
 pub const MATCHES_REJECTED: &str = "matches/rejected";
 /// The metadata document.
 pub const METADATA: &str = "recording/metadata";
+/// Entity of a what-if file's banner ([`Viz::log_whatif`]).
+pub const WHATIF: &str = "recording/whatif";
 
 /// Executed path: minimum tool0 displacement between two samples (m).
 pub const TRAJECTORY_STEP_M: f64 = 0.002;
@@ -268,6 +271,57 @@ impl Viz {
             METADATA,
             &TextDocument::new(md).with_media_type(rerun::MediaType::markdown()),
         )?;
+        Ok(())
+    }
+
+    /// Labels a what-if file (`rodlog replay --out`) as what it is: a static banner naming the
+    /// source and the changed parameters and, when the replay went open-loop, a WARN line on
+    /// `log/whatif` at `open_loop_from_ns`, so the time cursor shows where the outputs stop
+    /// describing what the robot did (the recorded sensors never saw the new commands).
+    ///
+    /// # Errors
+    /// [`VizError::Rerun`].
+    pub fn log_whatif(
+        &mut self,
+        source: &str,
+        changed_parameters: &str,
+        open_loop_from_ns: Option<u64>,
+        first_divergent_command: &str,
+    ) -> Result<(), VizError> {
+        let changed = if changed_parameters.is_empty() {
+            "none (the current stages, the recorded parameters)"
+        } else {
+            changed_parameters
+        };
+        let mut md = format!(
+            "# What-if replay of `{source}`\n\nChanged parameters: `{changed}`\n\n\
+             Recorded inputs (sensors, clock, ground truth) with the outputs the stages give now.\n"
+        );
+        match open_loop_from_ns {
+            Some(ns) => md.push_str(&format!(
+                "\n**Open-loop from {:.3} s** (first divergent command on \
+                 `{first_divergent_command}`): after it the recorded sensors did not see the new \
+                 commands, so the outputs show what the stages would have said, not what the robot \
+                 would have done. For that, simulate again (`rodlog record --scenario REC --set ...`).\n",
+                ns as f64 * 1e-9
+            )),
+            None => md.push_str("\nNo command diverged: the what-if stays closed-loop.\n"),
+        }
+        self.rec.log_static(
+            WHATIF,
+            &TextDocument::new(md).with_media_type(rerun::MediaType::markdown()),
+        )?;
+        if let Some(ns) = open_loop_from_ns {
+            self.set_time(ns);
+            self.rec.log(
+                "log/whatif",
+                &TextLog::new(format!(
+                    "WHAT-IF: open-loop from here ({first_divergent_command} diverged; changed: \
+                     {changed}); later outputs did not act on the recorded world"
+                ))
+                .with_level(rerun::TextLogLevel::WARN),
+            )?;
+        }
         Ok(())
     }
 
