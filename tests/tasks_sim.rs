@@ -1,7 +1,7 @@
 //! End to end (issue 12): the `task` stage hangs and removes the rod in the simulator, the
 //! independent judge (`rodlog check task`) confirms it with the simulator's truth, the runs
 //! replay byte for byte, and the judge catches what is unsafe (a colliding command, commands
-//! in high wind) while a windy start is refused without a single command.
+//! in high wind) while a windy start is waited for, then refused without a single command.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -150,7 +150,7 @@ fn a_knocked_camera_is_noticed_recalibrated_and_the_rod_still_hung() {
 }
 
 #[test]
-fn a_windy_start_is_refused_without_a_command() {
+fn a_windy_start_is_waited_for_then_refused_without_a_command() {
     let dir = tempfile::tempdir().expect("tmp");
     let rec = dir.path().join("windy.mcap");
     let mut sets = QUICK.to_vec();
@@ -161,8 +161,11 @@ fn a_windy_start_is_refused_without_a_command() {
     assert_eq!(v["outcome"], "refused", "{v}");
     assert_eq!(v["reason_code"], "wind_above_limit", "{v}");
     assert_eq!(v["commands"], 0, "{v}");
-    let log = rodlog(&["log", rec.to_str().expect("utf-8"), "--level", "warn"]);
+    let log = rodlog(&["log", rec.to_str().expect("utf-8")]);
     let text = String::from_utf8_lossy(&log.stdout);
+    // It held for the wind's hold timeout (60 s) before giving up.
+    assert!(text.contains("holding_for_wind"), "{text}");
+    assert!(text.contains("held 6"), "{text}");
     assert!(text.contains("wind_above_limit"), "{text}");
 }
 

@@ -21,8 +21,8 @@
 //! target and the hook reaches the wire by lowering the lift and a horizontal approach.
 //!
 //! # Safety
-//! * **Wind** ([`WindGate`]): checked before every command; at the start a closed gate refuses
-//!   the task (`wind_above_limit`), during the task it holds (no command) and refuses after
+//! * **Wind** ([`WindGate`]): checked before every command; a closed gate, at the start or
+//!   during the task, holds (no command) and refuses (`wind_above_limit`) after
 //!   [`WindGateParams::hold_timeout`].
 //! * **Perception**: a wire or handle estimate below its confidence threshold refuses
 //!   (`low_confidence`), after one more look when the first was refused.
@@ -1054,9 +1054,16 @@ impl TaskStage {
                 let verdict = self.gate.verdict(self.now);
                 match verdict {
                     WindVerdict::Open { .. } => Ok(Vec::new()),
-                    WindVerdict::TooWindy { .. } => {
-                        Err(Stop::refused("wind_above_limit", verdict.describe()))
-                    }
+                    // A gust at the start is waited out like one during the task: a
+                    // wind-gated action that sends nothing holds until the gate opens and
+                    // refuses (`wind_above_limit`) after the hold timeout.
+                    WindVerdict::TooWindy { .. } => Ok(vec![Action {
+                        outputs: Vec::new(),
+                        command: true,
+                        until: Until::Elapsed(RobotDuration::ZERO),
+                        timeout: RobotDuration::from_secs(5),
+                        label: "wait for the wind to drop",
+                    }]),
                     WindVerdict::NoReading { .. } => Err(Stop::refused(
                         "no_wind_reading",
                         format!(
