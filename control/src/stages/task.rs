@@ -39,10 +39,12 @@
 //! Before operating, the stage asks the calibration stage for a drift check
 //! (`/calibration/command` `check`, calib's [`calib::selfcal::CHECK_MOTION`] views of the site's
 //! calibration target, `solve`) and waits for its verdict on `/task/event` (task
-//! `calibration`, state `check`, reason `consistent` / `drifted` / `cannot_tell`). On drift
-//! it runs the 18-view calibration motion (`collect`, views, `solve`) and continues when the
-//! calibration stage reports `accepted`; the new camera edge arrives on `/tf` and every later
-//! plan uses it.
+//! `calibration`, state `check`, reason `consistent` / `drifted` / `cannot_tell`). On drift,
+//! and when the check cannot tell (it could miss a bump that matters), it runs the 18-view
+//! calibration motion (`collect`, views, `solve`) and continues when the calibration stage
+//! reports `accepted`; the new camera edge arrives on `/tf` and every later plan uses it. A
+//! check that cannot tell followed by a recalibration that is not accepted refuses
+//! (`calibration_unverifiable`).
 //!
 //! # Outputs
 //! Commands (`/arm/joint_trajectory` with `/arm/planned_path`, `/lift/command`,
@@ -509,6 +511,8 @@ pub struct TaskStage {
     captures: Vec<Capture>,
     panoramic_image: Option<Image>,
     calibration_answer: Option<TaskEvent>,
+    /// Why the drift check could not tell, while the recalibration that answers it runs.
+    unverified_check: Option<String>,
     wire_fix_in_map: Option<(Point3<f64>, Vector3<f64>)>,
     wire_in_base: Option<(Point3<f64>, Vector3<f64>)>,
     hook_goal: Option<Isometry3<f64>>,
@@ -595,6 +599,7 @@ impl TaskStage {
             captures: Vec::new(),
             panoramic_image: None,
             calibration_answer: None,
+            unverified_check: None,
             wire_fix_in_map: None,
             wire_in_base: None,
             hook_goal: None,
@@ -1746,14 +1751,24 @@ impl TaskStage {
         match (step, answer.reason_code.as_str()) {
             (Step::CheckCalibration, "consistent") => Ok(self.next_step(Step::Recalibrate)),
             (Step::CheckCalibration, "drifted") => Ok(Step::Recalibrate),
-            (Step::CheckCalibration, _) => Err(Stop::refused(
+            // The check could miss a bump that matters: calibrate afresh instead, which
+            // verifies itself (the stage accepts only a consistent X).
+            (Step::CheckCalibration, _) => {
+                self.unverified_check = Some(answer.text);
+                Ok(Step::Recalibrate)
+            }
+            (_, "accepted") => {
+                self.unverified_check = None;
+                Ok(self.next_step(Step::Recalibrate))
+            }
+            (_, code) if self.unverified_check.is_some() => Err(Stop::refused(
                 "calibration_unverifiable",
                 format!(
-                    "the hand-eye calibration could not be checked ({}): not operating on an unverified camera; retry in better light or check the camera",
+                    "the hand-eye calibration could not be checked ({}) nor redone ({code}: {}): not operating on an unverified camera; retry in better light or check the camera",
+                    self.unverified_check.take().unwrap_or_default(),
                     answer.text
                 ),
             )),
-            (_, "accepted") => Ok(self.next_step(Step::Recalibrate)),
             (_, code) => Err(Stop::refused(
                 "calibration_failed",
                 format!(
