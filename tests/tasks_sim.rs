@@ -54,6 +54,27 @@ fn judge(rec: &Path) -> (bool, serde_json::Value) {
     (out.status.success(), v)
 }
 
+/// The judge found no unsafe command.
+fn assert_no_unsafe_command(v: &serde_json::Value) {
+    assert_eq!(
+        v["unsafe_commands"].as_array().map(Vec::len),
+        Some(0),
+        "{v}"
+    );
+}
+
+/// `rodlog replay REC --check` regenerates every stage output byte for byte.
+fn assert_replays_identically(rec: &Path) {
+    let check = rodlog(&["replay", rec.to_str().expect("utf-8"), "--check"]);
+    assert!(
+        check.status.success(),
+        "{}: {}{}",
+        rec.display(),
+        String::from_utf8_lossy(&check.stdout),
+        String::from_utf8_lossy(&check.stderr)
+    );
+}
+
 /// A quick, well-lit, unbumped run with the calibration left as it is.
 const QUICK: [&str; 5] = [
     "task.self_maintenance=false",
@@ -74,11 +95,7 @@ fn the_rod_is_hung_and_removed_safely_and_both_runs_replay_identically() {
         assert_eq!(v["task"], task, "{v}");
         assert_eq!(v["outcome"], "done", "{v}");
         assert_eq!(v["success"], true, "{v}");
-        assert_eq!(
-            v["unsafe_commands"].as_array().map(Vec::len),
-            Some(0),
-            "{v}"
-        );
+        assert_no_unsafe_command(&v);
         assert!(v["commands"].as_u64().unwrap_or(0) > 8, "{v}");
         assert!(
             v["operation_s"].as_f64().unwrap_or(f64::INFINITY) < 300.0,
@@ -91,13 +108,7 @@ fn the_rod_is_hung_and_removed_safely_and_both_runs_replay_identically() {
         } else {
             assert_eq!(v["rod_state"], "on_rack", "{v}");
         }
-        let check = rodlog(&["replay", rec.to_str().expect("utf-8"), "--check"]);
-        assert!(
-            check.status.success(),
-            "{task}: {}{}",
-            String::from_utf8_lossy(&check.stdout),
-            String::from_utf8_lossy(&check.stderr)
-        );
+        assert_replays_identically(&rec);
     }
 }
 
@@ -138,11 +149,7 @@ fn a_knocked_camera_is_noticed_recalibrated_and_the_rod_still_hung() {
         "{v}"
     );
     assert_eq!(v["success"], true, "{v}");
-    assert_eq!(
-        v["unsafe_commands"].as_array().map(Vec::len),
-        Some(0),
-        "{v}"
-    );
+    assert_no_unsafe_command(&v);
     assert!(
         v["operation_s"].as_f64().unwrap_or(f64::INFINITY) < 300.0,
         "{v}"
@@ -241,19 +248,9 @@ fn a_dusk_refusal_replays_identically_and_a_what_if_is_labelled_open_loop() {
     assert_eq!(v["outcome"], "refused", "{v}");
     assert_eq!(v["reason_code"], "calibration_unverifiable", "{v}");
     assert_eq!(v["rod_state"], "on_rack", "{v}");
-    assert_eq!(
-        v["unsafe_commands"].as_array().map(Vec::len),
-        Some(0),
-        "{v}"
-    );
+    assert_no_unsafe_command(&v);
     let rec_s = rec.to_str().expect("utf-8");
-    let check = rodlog(&["replay", rec_s, "--check"]);
-    assert!(
-        check.status.success(),
-        "{}{}",
-        String::from_utf8_lossy(&check.stdout),
-        String::from_utf8_lossy(&check.stderr)
-    );
+    assert_replays_identically(&rec);
     // What if the task had skipped the check? Open-loop: the recorded world never saw the
     // new commands, and the what-if file says from when.
     let whatif = dir.path().join("whatif.mcap");
