@@ -37,6 +37,7 @@
 //! accepted estimate.
 
 use anyhow::Context as _;
+use control::perception::colour::LumaImage;
 use control::perception::confidence::ConfidenceThresholds;
 use control::perception::point_cloud::{DepthImage, PinholeCamera, RayTable};
 use control::perception::rng::SplitMix64;
@@ -45,7 +46,7 @@ use control::perception::wire::{WireObservation, WireParams, detect_wire, estima
 use control::perception::{PerceptionError, WIRE_RADIUS_M};
 use msgs::std_msgs::Header;
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
-use sim::cameras::{camera_info, depth_image};
+use sim::cameras::{camera_info, color_image, depth_image};
 use sim::render::{CameraIntrinsics, LightConditions, SensorParams, render_rgbd_with_rays};
 use sim::scenario::DepthEncoding;
 use sim::scene::substation::SubstationBuilder;
@@ -166,6 +167,8 @@ pub struct Errors {
     pub limiting: &'static str,
     /// Valid depth fraction in the fitted silhouette (worst capture).
     pub valid_depth_fraction: f64,
+    /// Colour contrast (step over spread) of the silhouette (worst capture).
+    pub colour_contrast: f64,
 }
 
 impl Errors {
@@ -257,6 +260,7 @@ pub fn run_trial(
         let image = depth_image(&frame, header.clone(), protocol.encoding);
         let camera = PinholeCamera::from_camera_info(&info)?;
         let depth = DepthImage::from_image(&image)?;
+        let colour = LumaImage::from_image(&color_image(&frame, header.clone()))?;
         let rays = ray_table(&camera)?;
         let camera_from_world = world_from_camera.inverse();
         let p0 = camera_from_world * (prior_point - prior_direction * PRIOR_HALF_LENGTH_M);
@@ -270,7 +274,7 @@ pub fn run_trial(
             }
         };
         match detect_wire(&depth, &rays, camera.fx, &roi, &protocol.wire) {
-            Ok(o) => observations.push((o, world_from_camera)),
+            Ok(o) => observations.push((o.confirm_in_colour(&colour, &camera), world_from_camera)),
             Err(e) => {
                 first_refusal.get_or_insert(e);
             }
@@ -313,6 +317,7 @@ pub fn run_trial(
             score: est.confidence.score,
             limiting: est.confidence.limiting,
             valid_depth_fraction: est.metrics.valid_depth_fraction,
+            colour_contrast: est.metrics.colour_contrast.unwrap_or(f64::NAN),
         }
     });
     Ok(Trial {
@@ -451,6 +456,8 @@ pub struct Summary {
     pub hook_violations: usize,
     /// Median confidence of the accepted estimates.
     pub median_score: f64,
+    /// Median colour contrast of the accepted estimates.
+    pub median_colour_contrast: f64,
     /// Refusal reasons with counts.
     pub reasons: Vec<(String, usize)>,
 }
@@ -506,6 +513,7 @@ pub fn summarize(name: &'static str, trials: &[Trial]) -> Summary {
         p95_axis_deg: percentile(&col(|e| e.axis_deg), 0.95),
         hook_violations: ok.iter().filter(|e| !e.in_hook_window()).count(),
         median_score: percentile(&col(|e| e.score), 0.5),
+        median_colour_contrast: percentile(&col(|e| e.colour_contrast), 0.5),
         reasons,
     }
 }
@@ -526,13 +534,13 @@ pub fn run_condition(
 }
 
 /// The table header.
-pub const TABLE_HEADER: &str = "| condition | trials | refused | median mm | p95 mm | max mm | med across mm | med approach mm | med axis deg | p95 axis deg | outside hook window | med score |\n|---|---|---|---|---|---|---|---|---|---|---|---|";
+pub const TABLE_HEADER: &str = "| condition | trials | refused | median mm | p95 mm | max mm | med across mm | med approach mm | med axis deg | p95 axis deg | outside hook window | med score | med colour contrast |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|";
 
 /// One table row.
 #[must_use]
 pub fn table_row(s: &Summary) -> String {
     format!(
-        "| {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.3} | {:.3} | {} | {:.2} |",
+        "| {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.3} | {:.3} | {} | {:.2} | {:.1} |",
         s.name,
         s.trials,
         s.refusals,
@@ -545,6 +553,7 @@ pub fn table_row(s: &Summary) -> String {
         s.p95_axis_deg,
         s.hook_violations,
         s.median_score,
+        s.median_colour_contrast,
     )
 }
 
@@ -569,7 +578,7 @@ fn main() -> anyhow::Result<()> {
         for t in &trials {
             match &t.outcome {
                 Ok(e) => println!(
-                    "  {} seed {:3} h {:5.2}: {:.2} mm (across {:+.2}, approach {:+.2}), axis {:.3} deg, score {:.2} ({}), valid depth {:.2}{}",
+                    "  {} seed {:3} h {:5.2}: {:.2} mm (across {:+.2}, approach {:+.2}), axis {:.3} deg, score {:.2} ({}), valid depth {:.2}, colour {:.1}{}",
                     condition.name,
                     t.seed,
                     t.hour,
@@ -580,6 +589,7 @@ fn main() -> anyhow::Result<()> {
                     e.score,
                     e.limiting,
                     e.valid_depth_fraction,
+                    e.colour_contrast,
                     if e.in_hook_window() {
                         ""
                     } else {

@@ -10,7 +10,8 @@
 mod harness;
 
 use harness::{
-    DAYLIGHT, HARSH_SUN, HOOK_APPROACH_M, Protocol, STRONG_SUN, run_condition, summarize,
+    DAYLIGHT, DUSK_3LX, DUSK_400LX, HARSH_SUN, HOOK_APPROACH_M, Protocol, STRONG_SUN,
+    run_condition, summarize,
 };
 
 /// Scenes per condition in CI.
@@ -65,6 +66,27 @@ fn in_strong_sun_confidence_drops_before_errors_leave_the_hook_window() {
             );
         }
     }
+}
+
+#[test]
+fn at_the_end_of_twilight_the_colour_image_cannot_confirm_the_wire_and_it_is_refused() {
+    // Depth does not care about ambient light; the colour image's gain noise does. At sunset
+    // (400 lx) the silhouette still stands out; at ~3 lx it does not, and every estimate is
+    // refused on that factor while the depth fits themselves are still good.
+    let protocol = Protocol::new(SCALE).expect("scaled wrist camera");
+    let sunset = run_condition(&protocol, 0..3, &DUSK_400LX).expect("simulation runs");
+    let s = summarize(DUSK_400LX.name, &sunset);
+    println!("{}\n{}", harness::TABLE_HEADER, harness::table_row(&s));
+    assert_eq!(s.refusals, 0, "sunset refusals: {:?}", s.reasons);
+    assert!(s.median_colour_contrast > 10.0, "{s:?}");
+    let night = run_condition(&protocol, 0..3, &DUSK_3LX).expect("simulation runs");
+    let s = summarize(DUSK_3LX.name, &night);
+    println!("{}\n{}", harness::TABLE_HEADER, harness::table_row(&s));
+    assert_eq!(
+        s.reasons,
+        vec![("low confidence (colour_contrast)".to_owned(), 3)],
+        "{s:?}"
+    );
 }
 
 #[test]

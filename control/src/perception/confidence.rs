@@ -20,6 +20,10 @@
 //! | valid depth fraction in the fitted silhouette | 0.75 | 0.4 | sun wash-out, holes, occlusion (clean: ~0.9, edges are always missing) |
 //! | capture agreement, offset of the axes near the target | 2 mm | 8 mm | a jitter or a wrong fit shows between captures |
 //! | capture agreement, axis angle | 1° | 4° | same |
+//! | colour contrast of the silhouette, step over background spread ([`super::colour`]) | 4 | 1.5 | the colour image confirms the depth fit (daylight 70-110, 400 lx ~45, 3 lx ~1.2: the gain's noise buries the edge) |
+//!
+//! Without a colour image (a depth-only caller) the colour factor is 1 and cannot limit;
+//! with one, a silhouette that cannot be measured in it counts as contrast 0.
 
 use super::PerceptionError;
 
@@ -42,6 +46,9 @@ pub struct QualityMetrics {
     pub agreement_offset_m: f64,
     /// Largest pairwise angle between the captures' axes (rad); 0 for one.
     pub agreement_angle_rad: f64,
+    /// Silhouette contrast (step over spread) in the registered colour image (smallest over captures);
+    /// `None` when no colour image was given.
+    pub colour_contrast: Option<f64>,
 }
 
 /// Good/bad ends of each factor's ramp and the acceptance threshold (module docs).
@@ -61,6 +68,8 @@ pub struct ConfidenceThresholds {
     pub agreement_offset_m: (f64, f64),
     /// Agreement angle `(good, bad)` (rad). Default (1°, 4°).
     pub agreement_angle_rad: (f64, f64),
+    /// Colour contrast `(good, bad)`. Default (4, 1.5).
+    pub colour_contrast: (f64, f64),
     /// Agreement factor of a single capture. Default 0.6.
     pub single_capture_factor: f64,
     /// Refuse below this score. Default 0.5.
@@ -77,6 +86,7 @@ impl Default for ConfidenceThresholds {
             valid_depth_fraction: (0.75, 0.4),
             agreement_offset_m: (0.002, 0.008),
             agreement_angle_rad: (1f64.to_radians(), 4f64.to_radians()),
+            colour_contrast: (4.0, 1.5),
             single_capture_factor: 0.6,
             min_score: 0.5,
         }
@@ -84,7 +94,7 @@ impl Default for ConfidenceThresholds {
 }
 
 /// Names of the factors, in [`Confidence::factors`] order.
-pub const FACTOR_NAMES: [&str; 7] = [
+pub const FACTOR_NAMES: [&str; 8] = [
     "support_ratio",
     "rms_residual",
     "radius_error",
@@ -92,6 +102,7 @@ pub const FACTOR_NAMES: [&str; 7] = [
     "valid_depth",
     "agreement_offset",
     "agreement_angle",
+    "colour_contrast",
 ];
 
 /// A score in `[0, 1]` with its factors.
@@ -100,7 +111,7 @@ pub struct Confidence {
     /// `min` of the factors.
     pub score: f64,
     /// Each factor in `[0, 1]`, [`FACTOR_NAMES`] order.
-    pub factors: [f64; 7],
+    pub factors: [f64; 8],
     /// Name of the smallest factor.
     pub limiting: &'static str,
 }
@@ -155,6 +166,9 @@ pub fn assess(metrics: &QualityMetrics, thresholds: &ConfidenceThresholds) -> Co
         ),
         offset,
         angle,
+        metrics
+            .colour_contrast
+            .map_or(1.0, |c| ramp(c, thresholds.colour_contrast)),
     ];
     let mut k_min = 0;
     for (k, f) in factors.iter().enumerate() {
@@ -188,6 +202,7 @@ mod tests {
             captures: 3,
             agreement_offset_m: 0.0005,
             agreement_angle_rad: 0.002,
+            colour_contrast: Some(9.0),
         }
     }
 
@@ -239,5 +254,26 @@ mod tests {
             &t,
         );
         assert_eq!(nan.score, 0.0);
+    }
+
+    #[test]
+    fn an_unconfirmed_silhouette_limits_and_no_colour_image_does_not() {
+        let t = ConfidenceThresholds::default();
+        let dark = assess(
+            &QualityMetrics {
+                colour_contrast: Some(1.0),
+                ..good()
+            },
+            &t,
+        );
+        assert_eq!((dark.score, dark.limiting), (0.0, "colour_contrast"));
+        let depth_only = assess(
+            &QualityMetrics {
+                colour_contrast: None,
+                ..good()
+            },
+            &t,
+        );
+        assert!((depth_only.score - 1.0).abs() < 1e-12);
     }
 }

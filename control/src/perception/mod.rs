@@ -10,6 +10,7 @@
 //! | [`wire`] | hanging point on the axis, approach normal, capture fusion, `PoseStamped` |
 //! | [`handle`] | the rod handle (a bar of known radius and length): pose |
 //! | [`panoramic`] | the panoramic wire-region finder: plane of the wire, corrected map prior, wrist look pose |
+//! | [`colour`] | colour confirmation of a depth fit: silhouette contrast in the registered colour image |
 //! | [`confidence`] | quality metrics -> score in [0, 1], refusal threshold |
 //! | [`synthetic`] | seeded synthetic depth captures (cylinder, plane, boxes, noise, holes) for tests and benches |
 //! | [`rng`] | splitmix64, the only random source |
@@ -23,6 +24,7 @@
 //! `a_from_b` (`base_from_camera * p_in_camera = p_in_base`). Depth images hold the z
 //! coordinate (not the range) of each pixel, 0 or NaN for holes.
 
+pub mod colour;
 pub mod confidence;
 pub mod cylinder;
 pub mod handle;
@@ -58,6 +60,24 @@ pub enum PerceptionError {
         "depth image: {reason} (encoding {encoding}, {width}x{height}, step {step}, {bytes} bytes)"
     )]
     BadDepthImage {
+        /// What is wrong.
+        reason: &'static str,
+        /// Its encoding.
+        encoding: String,
+        /// Width (px).
+        width: u32,
+        /// Height (px).
+        height: u32,
+        /// Row stride (bytes).
+        step: u32,
+        /// Data length (bytes).
+        bytes: usize,
+    },
+    /// The colour image has an unsupported layout.
+    #[error(
+        "colour image: {reason} (encoding {encoding}, {width}x{height}, step {step}, {bytes} bytes)"
+    )]
+    BadColourImage {
         /// What is wrong.
         reason: &'static str,
         /// Its encoding.

@@ -24,9 +24,10 @@
 //! ([`super::confidence`]).
 
 use super::PerceptionError;
+use super::colour::{LumaImage, axis_extent, limb_contrast};
 use super::confidence::{Confidence, ConfidenceThresholds, QualityMetrics, assess};
 use super::cylinder::{Cylinder, CylinderFit, RansacParams, fit_cylinder};
-use super::point_cloud::{DepthImage, RayTable};
+use super::point_cloud::{DepthImage, PinholeCamera, RayTable};
 use super::roi::{PixelRoi, canonical_axis_sign, extract_roi};
 use msgs::geometry_msgs::{Point, Pose, PoseStamped, Quaternion};
 use msgs::std_msgs::Header;
@@ -121,6 +122,10 @@ pub struct WireObservation {
     pub valid_depth_fraction: f64,
     /// Inlier points (camera frame), for `/perception/roi_cloud`.
     pub inlier_points: Vec<Point3<f64>>,
+    /// Silhouette contrast in the registered colour image ([`super::colour`]), set by
+    /// [`WireObservation::confirm_in_colour`]; `None` when no colour image was given, 0 when
+    /// one was given and the silhouette could not be measured in it.
+    pub colour_contrast: Option<f64>,
 }
 
 impl WireObservation {
@@ -136,7 +141,20 @@ impl WireObservation {
             captures: 1,
             agreement_offset_m: 0.0,
             agreement_angle_rad: 0.0,
+            colour_contrast: self.colour_contrast,
         }
+    }
+
+    /// Measures how well `colour` (registered to the depth image, model `camera`) shows the
+    /// fitted silhouette over the inliers' extent ([`super::colour::limb_contrast`]).
+    #[must_use]
+    pub fn confirm_in_colour(mut self, colour: &LumaImage, camera: &PinholeCamera) -> Self {
+        let cylinder = &self.fit.cylinder;
+        let contrast = axis_extent(cylinder, &self.inlier_points)
+            .and_then(|extent| limb_contrast(colour, camera, cylinder, extent))
+            .map_or(0.0, |c| c.contrast);
+        self.colour_contrast = Some(contrast);
+        self
     }
 }
 
@@ -177,6 +195,7 @@ pub fn detect_wire(
         valid_depth_fraction,
         inlier_points,
         fit,
+        colour_contrast: None,
     })
 }
 
@@ -314,6 +333,10 @@ pub fn estimate_wire(
         metrics.radius_error_m = metrics.radius_error_m.max(m.radius_error_m);
         metrics.inlier_count = metrics.inlier_count.min(m.inlier_count);
         metrics.valid_depth_fraction = metrics.valid_depth_fraction.min(m.valid_depth_fraction);
+        metrics.colour_contrast = match (metrics.colour_contrast, m.colour_contrast) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
     }
     metrics.captures = observations.len();
     for (i, a) in axes.iter().enumerate() {

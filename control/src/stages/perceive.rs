@@ -16,7 +16,8 @@
 //!    `/arm/planned_path`. An unreachable or colliding look pose is refused on `/rosout`.
 //! 3. **Captures.** When the measured arm is within [`ARRIVED_RAD`] of the goal and at rest,
 //!    `/camera/trigger`; on each `/camera/depth/image_raw`: `base_from_camera` at its stamp,
-//!    the ROI around the prior, [`wire::detect_wire`]; the next trigger until
+//!    the ROI around the prior, [`wire::detect_wire`], confirmed in the colour image of the
+//!    same stamp ([`WireObservation::confirm_in_colour`]); the next trigger until
 //!    [`PerceiveConfig::captures`] captures.
 //! 4. **Estimate.** [`wire::estimate_wire`] over the captures (in `base_link`):
 //!    `/perception/roi_cloud` (the inliers, `base_link`), `/perception/target_pose` (the
@@ -35,9 +36,9 @@ use msgs::rcl_interfaces::Log;
 use msgs::sensor_msgs::{Image, PointCloud2};
 use msgs::std_msgs::{Empty, Header};
 use msgs::topics::{
-    ARM_JOINT_TRAJECTORY, ARM_PLANNED_PATH, CAMERA_COLOR_INFO, CAMERA_DEPTH_IMAGE, CAMERA_TRIGGER,
-    CLOCK, JOINT_STATES, PANORAMIC_IMAGE, PANORAMIC_INFO, PERCEPTION_ROI_CLOUD,
-    PERCEPTION_TARGET_POSE, ROSOUT, TF, TF_STATIC,
+    ARM_JOINT_TRAJECTORY, ARM_PLANNED_PATH, CAMERA_COLOR_IMAGE, CAMERA_COLOR_INFO,
+    CAMERA_DEPTH_IMAGE, CAMERA_TRIGGER, CLOCK, JOINT_STATES, PANORAMIC_IMAGE, PANORAMIC_INFO,
+    PERCEPTION_ROI_CLOUD, PERCEPTION_TARGET_POSE, ROSOUT, TF, TF_STATIC,
 };
 use msgs::trajectory_msgs::JointTrajectory;
 use msgs::{Msg, RobotDuration, RobotTime, RosMessage, Stage, StageError};
@@ -47,6 +48,7 @@ use robot::{ArmIk, IkSettings, JointKind, RobotModel, TfBuffer};
 use crate::motion::collision::{ArmCollisionModel, CollisionWorld};
 use crate::motion::planner;
 use crate::motion::trajectory::DEFAULT_DT_NS;
+use crate::perception::colour::LumaImage;
 use crate::perception::confidence::ConfidenceThresholds;
 use crate::perception::panoramic::{self, PanoramicParams, RgbView, WirePrior};
 use crate::perception::point_cloud::{DepthImage, PinholeCamera, RayTable, to_point_cloud2};
@@ -144,6 +146,9 @@ pub struct PerceiveStage {
     lift_m: f64,
     phase: Phase,
     observations: Vec<(WireObservation, Isometry3<f64>)>,
+    /// The last wrist colour image while capturing (stamp ns), for the depth image of the
+    /// same stamp that follows it (the runtime publishes a `CameraCapture` colour first).
+    colour: Option<(u64, LumaImage)>,
     captures_seen: usize,
 }
 
@@ -177,6 +182,7 @@ impl PerceiveStage {
             lift_m: 0.0,
             phase: Phase::Panoramic { attempts: 0 },
             observations: Vec::new(),
+            colour: None,
             captures_seen: 0,
         })
     }
@@ -432,6 +438,12 @@ impl PerceiveStage {
                     .map_err(|e| e.to_string())?;
             let observation = wire::detect_wire(&depth, rays, camera.fx, &roi, &self.config.wire)
                 .map_err(|e| e.to_string())?;
+            let observation = match self.colour.take() {
+                Some((stamp, colour)) if stamp == stamp_ns => {
+                    observation.confirm_in_colour(&colour, camera)
+                }
+                _ => observation,
+            };
             Ok((observation, base_from_camera))
         })();
         match detected {
@@ -527,6 +539,7 @@ impl Stage for PerceiveStage {
             PANORAMIC_IMAGE,
             PANORAMIC_INFO,
             CAMERA_COLOR_INFO,
+            CAMERA_COLOR_IMAGE,
             CAMERA_DEPTH_IMAGE,
         ]
         .iter()
@@ -578,6 +591,14 @@ impl Stage for PerceiveStage {
                 Vec::new()
             }
             (PANORAMIC_IMAGE, Msg::Image(image)) => self.on_panoramic(log_time, image),
+            (CAMERA_COLOR_IMAGE, Msg::Image(image)) => {
+                if self.phase == Phase::Capturing {
+                    // Unreadable colour confirms nothing: an empty image counts as contrast 0.
+                    let luma = LumaImage::from_image(image).unwrap_or_default();
+                    self.colour = Some((time_ns(&image.header.stamp), luma));
+                }
+                Vec::new()
+            }
             (CAMERA_DEPTH_IMAGE, Msg::Image(image)) => self.on_depth(log_time, image),
             (JOINT_STATES, Msg::JointState(js)) => self.on_joint_state(js),
             (CLOCK, Msg::Clock(_)) => self.on_clock(log_time),

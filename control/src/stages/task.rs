@@ -63,10 +63,10 @@ use msgs::rodlog_msgs::{ClampCommand, TaskEvent};
 use msgs::sensor_msgs::{Image, JointState, PointCloud2};
 use msgs::std_msgs::{Empty, Float64, Header, String as StringMsg};
 use msgs::topics::{
-    ARM_JOINT_TRAJECTORY, ARM_PLANNED_PATH, BASE_GOAL, CALIBRATION_COMMAND, CAMERA_COLOR_INFO,
-    CAMERA_DEPTH_IMAGE, CAMERA_TRIGGER, CLAMP_COMMAND, CLOCK, ENV_WIND, JOINT_STATES, LIFT_COMMAND,
-    PANORAMIC_IMAGE, PANORAMIC_INFO, PERCEPTION_ROI_CLOUD, PERCEPTION_TARGET_POSE, ROSOUT,
-    TASK_EVENT, TF, TF_STATIC,
+    ARM_JOINT_TRAJECTORY, ARM_PLANNED_PATH, BASE_GOAL, CALIBRATION_COMMAND, CAMERA_COLOR_IMAGE,
+    CAMERA_COLOR_INFO, CAMERA_DEPTH_IMAGE, CAMERA_TRIGGER, CLAMP_COMMAND, CLOCK, ENV_WIND,
+    JOINT_STATES, LIFT_COMMAND, PANORAMIC_IMAGE, PANORAMIC_INFO, PERCEPTION_ROI_CLOUD,
+    PERCEPTION_TARGET_POSE, ROSOUT, TASK_EVENT, TF, TF_STATIC,
 };
 use msgs::trajectory_msgs::JointTrajectory;
 use msgs::{Msg, RobotDuration, RobotTime, RosMessage, Stage, StageError};
@@ -78,6 +78,7 @@ use crate::motion::collision::{ArmCollisionModel, CollisionWorld, Payload};
 use crate::motion::lift::{LiftParams, choose_lift};
 use crate::motion::planner::{self, ArmPlan};
 use crate::motion::trajectory::DEFAULT_DT_NS;
+use crate::perception::colour::LumaImage;
 use crate::perception::confidence::ConfidenceThresholds;
 use crate::perception::handle::{HandleModel, fit_handle};
 use crate::perception::panoramic::{self, PanoramicParams, RgbView};
@@ -455,6 +456,8 @@ struct Running {
 #[derive(Debug, Clone)]
 struct Capture {
     depth: DepthImage,
+    /// The registered colour image of the same stamp, when one came.
+    colour: Option<LumaImage>,
     base_from_camera: Isometry3<f64>,
     stamp: Time,
 }
@@ -509,6 +512,9 @@ pub struct TaskStage {
     rod: Rod,
     attempts: usize,
     captures: Vec<Capture>,
+    /// The last wrist colour image during a capture (stamp ns), for the depth image of the
+    /// same stamp that follows it (the runtime publishes a `CameraCapture` colour first).
+    colour: Option<(u64, LumaImage)>,
     panoramic_image: Option<Image>,
     calibration_answer: Option<TaskEvent>,
     /// Why the drift check could not tell, while the recalibration that answers it runs.
@@ -597,6 +603,7 @@ impl TaskStage {
             rod,
             attempts: 0,
             captures: Vec::new(),
+            colour: None,
             panoramic_image: None,
             calibration_answer: None,
             unverified_check: None,
@@ -1867,7 +1874,13 @@ impl TaskStage {
                         .map_err(|e| e.to_string())
                 });
             match detected {
-                Ok(o) => observations.push((o, c.base_from_camera)),
+                Ok(o) => {
+                    let o = match &c.colour {
+                        Some(colour) => o.confirm_in_colour(colour, &camera),
+                        None => o,
+                    };
+                    observations.push((o, c.base_from_camera));
+                }
                 Err(e) => reasons.push(e),
             }
         }
@@ -2557,6 +2570,20 @@ impl TaskStage {
         }
     }
 
+    fn on_colour(&mut self, image: &Image) {
+        if self
+            .running
+            .as_ref()
+            .is_none_or(|r| r.action.until != Until::Capture)
+        {
+            return;
+        }
+        // An image that cannot be read cannot confirm anything: an empty one counts as
+        // contrast 0 (`WireObservation::confirm_in_colour`).
+        let luma = LumaImage::from_image(image).unwrap_or_default();
+        self.colour = Some((time_ns(&image.header.stamp), luma));
+    }
+
     fn on_depth(&mut self, image: &Image) {
         let Some(running) = &self.running else {
             return;
@@ -2585,8 +2612,14 @@ impl TaskStage {
             self.end(&stop);
             return;
         };
+        let colour = self
+            .colour
+            .take()
+            .filter(|(stamp, _)| *stamp == stamp_ns)
+            .map(|(_, luma)| luma);
         self.captures.push(Capture {
             depth,
+            colour,
             base_from_camera: base_from_tool0 * self.tool0_from_camera(stamp_ns),
             stamp: image.header.stamp,
         });
@@ -2644,6 +2677,7 @@ impl Stage for TaskStage {
             PANORAMIC_IMAGE,
             PANORAMIC_INFO,
             CAMERA_COLOR_INFO,
+            CAMERA_COLOR_IMAGE,
             CAMERA_DEPTH_IMAGE,
             TASK_EVENT,
         ]
@@ -2723,6 +2757,7 @@ impl Stage for TaskStage {
                 self.panoramic_image = Some(image.clone());
                 self.running = None;
             }
+            (CAMERA_COLOR_IMAGE, Msg::Image(image)) => self.on_colour(image),
             (CAMERA_DEPTH_IMAGE, Msg::Image(image)) => self.on_depth(image),
             (TASK_EVENT, Msg::TaskEvent(e))
                 if e.task == CALIBRATION_TASK
