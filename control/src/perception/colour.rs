@@ -309,7 +309,8 @@ mod tests {
     fn a_clean_silhouette_has_high_contrast_and_noise_lowers_it() {
         let cam = camera();
         let measure = |noise| {
-            let image = LumaImage::from_image(&bar_image(&cam, 60.0, 180.0, noise)).expect("mono8 image");
+            let image =
+                LumaImage::from_image(&bar_image(&cam, 60.0, 180.0, noise)).expect("mono8 image");
             limb_contrast(&image, &cam, &bar(), (-0.1, 0.1)).expect("silhouette in view")
         };
         let clean = measure(4.0);
@@ -323,7 +324,8 @@ mod tests {
     #[test]
     fn a_cylinder_where_the_image_shows_nothing_has_no_contrast() {
         let cam = camera();
-        let image = LumaImage::from_image(&bar_image(&cam, 120.0, 120.0, 10.0)).expect("mono8 image");
+        let image =
+            LumaImage::from_image(&bar_image(&cam, 120.0, 120.0, 10.0)).expect("mono8 image");
         let c = limb_contrast(&image, &cam, &bar(), (-0.1, 0.1)).expect("silhouette in view");
         assert!(c.contrast < 0.5, "{c:?}");
     }
