@@ -385,7 +385,7 @@ fn category_axis(n: usize) -> Range<f64> {
 }
 
 /// `r` grown at the top by [`LEGEND_ROOM`] of its span, so the legend (upper right) does
-/// not cover the highest boxes or bars.
+/// not cover the highest boxes, bars or line points (e.g. a success rate at 100 %).
 fn with_legend_room(r: Range<f64>) -> Range<f64> {
     let span = r.end - r.start;
     r.start..r.end + LEGEND_ROOM * span
@@ -590,7 +590,10 @@ impl Draw for LinePlot {
             .margin(CHART_MARGIN)
             .x_label_area_size(48)
             .y_label_area_size(Y_LABEL_AREA)
-            .build_cartesian_2d(padded(x0, x1, false), padded(y0, y1, y0 >= 0.0))
+            .build_cartesian_2d(
+                padded(x0, x1, false),
+                with_legend_room(padded(y0, y1, y0 >= 0.0)),
+            )
             .map_err(msg)?;
         chart
             .configure_mesh()
