@@ -2485,8 +2485,11 @@ impl TaskStage {
                 if command {
                     let verdict = self.gate.verdict(self.now);
                     if !verdict.is_open() {
+                        // Announced once per hold: `advance` runs for every message of a
+                        // tick, so "since == now" would repeat it within the first tick.
+                        let announce = self.holding_since.is_none();
                         let since = *self.holding_since.get_or_insert(self.now);
-                        if since == self.now {
+                        if announce {
                             let out = self.event(
                                 TaskEvent::INFO,
                                 self.step.name(),
