@@ -351,14 +351,16 @@ pub const ARM_BASE_LOW_M: f64 = 1.4;
 /// so the handle is seen from 0.4-0.6 m.
 pub const HANDLE_STANDOFF_RANGE_M: (f64, f64) = (0.4, 0.6);
 
-/// Result of one handle trial: centre error (m) and axis error (deg), or the refusal.
-pub type HandleOutcome = Result<(f64, f64), PerceptionError>;
+/// Result of one handle trial: centre error (m), axis error (deg) and the colour contrast of
+/// the silhouette, or the refusal.
+pub type HandleOutcome = Result<(f64, f64, f64), PerceptionError>;
 
 /// The rod hung on the target conductor (remove flow: hook centre on the wire axis at a
 /// seeded span fraction, rod vertical), its handle seen from a standoff in
-/// [`HANDLE_STANDOFF_RANGE_M`] at hour 11; the handle is fitted with `model` in the ROI of
-/// its true segment (3 cm margin) and compared with the simulator's handle (rod frame `z` in
-/// `[0, HANDLE_LENGTH_M]`).
+/// [`HANDLE_STANDOFF_RANGE_M`] at `hour`; the handle is fitted with `model` in the ROI of
+/// its true segment (3 cm margin), confirmed in the colour image like the task does
+/// (`HandleEstimate::confirm_in_colour`), and compared with the simulator's handle (rod
+/// frame `z` in `[0, HANDLE_LENGTH_M]`).
 ///
 /// # Errors
 /// Simulator or camera-model failures.
@@ -367,6 +369,7 @@ pub fn run_handle_trial(
     rays_sim: &sim::render::RayTable,
     seed: u64,
     model: &control::perception::handle::HandleModel,
+    hour: f64,
 ) -> anyhow::Result<HandleOutcome> {
     use sim::scene::grounding_rod::{HANDLE_LENGTH_M, HOOK_CENTER_IN_ROD};
     let (mut scene, layout) = SubstationBuilder::new(seed).build().context("substation")?;
@@ -388,11 +391,12 @@ pub fn run_handle_trial(
         &scene,
         &world_from_camera,
         rays_sim,
-        &LightConditions::from_hour(11.0),
+        &LightConditions::from_hour(hour),
         &SensorParams::wrist(),
         seed,
     );
     let header = Header::default();
+    let colour = LumaImage::from_image(&color_image(&frame, header.clone()))?;
     let camera =
         PinholeCamera::from_camera_info(&camera_info(&protocol.intrinsics, header.clone()))?;
     let depth = DepthImage::from_image(&depth_image(&frame, header, protocol.encoding))?;
@@ -412,20 +416,23 @@ pub fn run_handle_trial(
         depth.normal(&rays, camera.fx, u as usize, v as usize)
     };
     let robot_in_camera = camera_from_world * robot_point;
-    Ok(control::perception::handle::fit_handle(
+    let fitted = control::perception::handle::fit_handle(
         &cloud.points,
         normal_of,
         model,
         &protocol.wire.ransac,
         &robot_in_camera,
-    )
-    .map(|h| {
+    );
+    Ok(fitted.and_then(|h| {
+        let contrast =
+            h.confirm_in_colour(&cloud.points, &colour, &camera, &protocol.thresholds)?;
         let centre_est = world_from_camera * h.pose.point;
         let axis_est = world_from_camera.rotation * h.pose.axis;
-        (
+        Ok((
             (centre_est - centre).norm(),
             axis_est.dot(&axis).abs().min(1.0).acos().to_degrees(),
-        )
+            contrast,
+        ))
     }))
 }
 
@@ -613,34 +620,47 @@ fn main() -> anyhow::Result<()> {
     }
     let rays_sim = sim::render::RayTable::new(&protocol.intrinsics)?;
     let model = control::perception::handle::HandleModel::default();
-    let (mut centres, mut axes, mut refused) = (Vec::new(), Vec::new(), 0usize);
     let handle_scenes = scenes;
-    for seed in 0..handle_scenes {
-        match run_handle_trial(&protocol, &rays_sim, seed, &model)? {
-            Ok((c, a)) => {
-                println!(
-                    "  handle seed {seed:3}: centre {:.2} mm, axis {a:.3} deg",
-                    c * 1e3
-                );
-                centres.push(c);
-                axes.push(a);
-            }
-            Err(e) => {
-                println!("  handle seed {seed:3}: no estimate: {e}");
-                refused += 1;
+    let mut handle_rows = Vec::new();
+    for (name, hour) in [("hour 11", 11.0), ("dusk 18:22 (3 lx)", DUSK_3LX.hours.0)] {
+        let (mut centres, mut axes, mut contrasts, mut refused) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for seed in 0..handle_scenes {
+            match run_handle_trial(&protocol, &rays_sim, seed, &model, hour)? {
+                Ok((c, a, k)) => {
+                    println!(
+                        "  handle {name} seed {seed:3}: centre {:.2} mm, axis {a:.3} deg, colour {k:.1}",
+                        c * 1e3
+                    );
+                    centres.push(c);
+                    axes.push(a);
+                    contrasts.push(k);
+                }
+                Err(e) => {
+                    println!("  handle {name} seed {seed:3}: no estimate: {e}");
+                    refused.push(e);
+                }
             }
         }
+        handle_rows.push(format!(
+            "handle (rod hung on the wire, {name}): {handle_scenes} scenes, {} refused{}, centre median {:.2} mm, p95 {:.2} mm, max {:.2} mm, axis median {:.3} deg, colour contrast median {:.1}",
+            refused.len(),
+            refused
+                .first()
+                .map_or(String::new(), |e| format!(" (first: {e})")),
+            percentile(&centres, 0.5) * 1e3,
+            percentile(&centres, 0.95) * 1e3,
+            percentile(&centres, 1.0) * 1e3,
+            percentile(&axes, 0.5),
+            percentile(&contrasts, 0.5),
+        ));
     }
     println!("\n{TABLE_HEADER}");
     for s in &rows {
         println!("{}", table_row(s));
     }
-    println!(
-        "\nhandle (rod hung on the wire, hour 11): {handle_scenes} scenes, {refused} refused, centre median {:.2} mm, p95 {:.2} mm, max {:.2} mm, axis median {:.3} deg",
-        percentile(&centres, 0.5) * 1e3,
-        percentile(&centres, 0.95) * 1e3,
-        percentile(&centres, 1.0) * 1e3,
-        percentile(&axes, 0.5)
-    );
+    for row in &handle_rows {
+        println!("\n{row}");
+    }
     Ok(())
 }

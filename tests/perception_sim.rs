@@ -90,6 +90,33 @@ fn at_the_end_of_twilight_the_colour_image_cannot_confirm_the_wire_and_it_is_ref
 }
 
 #[test]
+fn at_the_end_of_twilight_the_handle_loses_its_colour_confirmation() {
+    use control::perception::PerceptionError;
+    use control::perception::handle::HandleModel;
+    let protocol = Protocol::new(SCALE).expect("scaled wrist camera");
+    let rays = sim::render::RayTable::new(&protocol.intrinsics).expect("ray table");
+    for seed in [5, 6, 8] {
+        let run = |hour| {
+            harness::run_handle_trial(&protocol, &rays, seed, &HandleModel::default(), hour)
+                .expect("simulation runs")
+        };
+        let (_, _, daylight_contrast) = run(11.0).expect("daylight handle accepted");
+        assert!(daylight_contrast > 20.0, "seed {seed}: {daylight_contrast}");
+        let dusk = run(DUSK_3LX.hours.0);
+        assert!(
+            matches!(
+                dusk,
+                Err(PerceptionError::LowConfidence {
+                    limiting: "colour_contrast",
+                    ..
+                })
+            ),
+            "seed {seed}: {dusk:?}"
+        );
+    }
+}
+
+#[test]
 fn the_16uc1_seam_still_finds_the_wire() {
     let mut protocol = Protocol::new(SCALE).expect("scaled wrist camera");
     protocol.encoding = sim::scenario::DepthEncoding::U16Millimetres;
@@ -112,9 +139,10 @@ fn the_handle_of_the_simulated_rod_is_found() {
     let protocol = Protocol::new(SCALE).expect("scaled wrist camera");
     let rays = sim::render::RayTable::new(&protocol.intrinsics).expect("ray table");
     for seed in 0..3 {
-        let outcome = harness::run_handle_trial(&protocol, &rays, seed, &HandleModel::default())
-            .expect("simulation runs");
-        let (centre_m, axis_deg) =
+        let outcome =
+            harness::run_handle_trial(&protocol, &rays, seed, &HandleModel::default(), 11.0)
+                .expect("simulation runs");
+        let (centre_m, axis_deg, _contrast) =
             outcome.unwrap_or_else(|e| panic!("seed {seed}: handle refused: {e}"));
         assert!(centre_m < 0.003, "seed {seed}: centre {centre_m} m");
         assert!(axis_deg < 0.5, "seed {seed}: axis {axis_deg} deg");

@@ -16,7 +16,10 @@
 //! the same convention as the wire's hanging point.
 
 use super::PerceptionError;
+use super::colour::{LumaImage, axis_extent, limb_contrast};
+use super::confidence::{ConfidenceThresholds, ramp};
 use super::cylinder::{CylinderFit, RansacParams, fit_cylinder};
+use super::point_cloud::PinholeCamera;
 use super::wire::{HangingPoint, hanging_point};
 use nalgebra::{Point3, Vector3};
 
@@ -52,6 +55,56 @@ pub struct HandleEstimate {
     pub measured_length_m: f64,
     /// Centre pose and approach geometry.
     pub pose: HangingPoint,
+}
+
+impl HandleEstimate {
+    /// Silhouette contrast of the fitted bar in the registered colour image
+    /// ([`super::colour`]), over the extent of its inliers among `points` (the points it was
+    /// fitted to); 0 when it cannot be measured.
+    #[must_use]
+    pub fn colour_contrast(
+        &self,
+        points: &[Point3<f64>],
+        colour: &LumaImage,
+        camera: &PinholeCamera,
+    ) -> f64 {
+        let inliers: Vec<Point3<f64>> = self
+            .fit
+            .inliers
+            .iter()
+            .filter_map(|&k| points.get(k))
+            .copied()
+            .collect();
+        let cylinder = &self.fit.cylinder;
+        axis_extent(cylinder, &inliers)
+            .and_then(|extent| limb_contrast(colour, camera, cylinder, extent))
+            .map_or(0.0, |c| c.contrast)
+    }
+
+    /// [`Self::colour_contrast`], refused like the wire's factor: the contrast's ramp
+    /// `thresholds.colour_contrast` must reach `thresholds.min_score`.
+    ///
+    /// # Errors
+    /// [`PerceptionError::LowConfidence`] (limited by `colour_contrast`).
+    pub fn confirm_in_colour(
+        &self,
+        points: &[Point3<f64>],
+        colour: &LumaImage,
+        camera: &PinholeCamera,
+        thresholds: &ConfidenceThresholds,
+    ) -> Result<f64, PerceptionError> {
+        let contrast = self.colour_contrast(points, colour, camera);
+        let score = ramp(contrast, thresholds.colour_contrast);
+        if score >= thresholds.min_score {
+            Ok(contrast)
+        } else {
+            Err(PerceptionError::LowConfidence {
+                score,
+                threshold: thresholds.min_score,
+                limiting: "colour_contrast",
+            })
+        }
+    }
 }
 
 /// Fits the handle to `points` (normals from `normal_of`), approached from `robot_point`.

@@ -2019,6 +2019,14 @@ impl TaskStage {
                     )
                     .map_err(|e| e.to_string())
                     .map(|h| (h, points))
+                })
+                .and_then(|(h, points)| match &c.colour {
+                    // Confirmed in the registered colour image like the wire (dusk refuses).
+                    Some(colour) => h
+                        .confirm_in_colour(&points.points, colour, &camera, &self.config.thresholds)
+                        .map(|_| (h, points))
+                        .map_err(|e| format!("handle {e}")),
+                    None => Ok((h, points)),
                 });
             match result {
                 Ok((h, points)) if h.fit.rms_residual_m <= self.config.handle_max_rms_m => {
