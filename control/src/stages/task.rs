@@ -508,6 +508,8 @@ pub struct TaskStage {
     queue: Vec<Action>,
     running: Option<Running>,
     holding_since: Option<RobotTime>,
+    /// Time spent in finished wind holds this operation.
+    held_for_wind: RobotDuration,
     began: Option<RobotTime>,
     rod: Rod,
     attempts: usize,
@@ -599,6 +601,7 @@ impl TaskStage {
             queue: Vec::new(),
             running: None,
             holding_since: None,
+            held_for_wind: RobotDuration::ZERO,
             began: None,
             rod,
             attempts: 0,
@@ -1707,6 +1710,7 @@ impl TaskStage {
             self.pending.extend(out);
             self.phase = TaskKind::Remove;
             self.began = Some(self.now);
+            self.held_for_wind = RobotDuration::ZERO;
             self.attempts = 0;
             self.sway_holds = 0;
             let out = self.event(
@@ -2460,13 +2464,27 @@ impl TaskStage {
             if let Some(b) = self.began
                 && self.now.saturating_duration_since(b) > self.config.operation_timeout
             {
-                let stop = Stop::failed(
-                    "timeout",
-                    format!(
-                        "the operation took longer than {:.0} s",
-                        self.config.operation_timeout.as_secs_f64()
-                    ),
-                );
+                let holding = self.holding_since.map_or(RobotDuration::ZERO, |h| {
+                    self.now.saturating_duration_since(h)
+                });
+                let held = self.held_for_wind + holding;
+                let limit_s = self.config.operation_timeout.as_secs_f64();
+                // Out of time because gusts kept stopping the work: the wind gate's refusal,
+                // not a fault of the robot's.
+                let stop = if held > RobotDuration::ZERO {
+                    Stop::refused(
+                        "wind_above_limit",
+                        format!(
+                            "the operation could not finish within {limit_s:.0} s: held {:.0} s for the wind in gusts",
+                            held.as_secs_f64()
+                        ),
+                    )
+                } else {
+                    Stop::failed(
+                        "timeout",
+                        format!("the operation took longer than {limit_s:.0} s"),
+                    )
+                };
                 self.end(&stop);
                 break;
             }
@@ -2520,7 +2538,10 @@ impl TaskStage {
                         }
                         break;
                     }
-                    self.holding_since = None;
+                    if let Some(since) = self.holding_since.take() {
+                        self.held_for_wind =
+                            self.held_for_wind + self.now.saturating_duration_since(since);
+                    }
                 }
                 let mut action = self.queue.remove(0);
                 // Re-stamp the outputs: the action may have been planned earlier.
