@@ -29,7 +29,7 @@
 
 use super::PerceptionError;
 use super::cylinder::Cylinder;
-use super::point_cloud::PinholeCamera;
+use super::point_cloud::{PinholeCamera, image_rows};
 use msgs::sensor_msgs::Image;
 use nalgebra::Point3;
 
@@ -79,25 +79,9 @@ impl LumaImage {
             "mono8" => (1, [0, 0, 0]),
             _ => return Err(bad("encoding must be rgb8, bgr8, rgba8, bgra8 or mono8")),
         };
-        let (width, height, step) = (
-            image.width as usize,
-            image.height as usize,
-            image.step as usize,
-        );
-        if step < width * bpp {
-            return Err(bad("step shorter than a row"));
-        }
-        let needed = if height == 0 {
-            0
-        } else {
-            step * (height - 1) + width * bpp
-        };
-        if image.data.len() < needed {
-            return Err(bad("data shorter than height * step"));
-        }
+        let (width, height) = (image.width as usize, image.height as usize);
         let mut luma = Vec::with_capacity(width * height);
-        for v in 0..height {
-            let row = &image.data[v * step..v * step + width * bpp];
+        for row in image_rows(image, bpp).map_err(bad)? {
             luma.extend(row.chunks_exact(bpp).map(|p| {
                 0.299 * f32::from(p[r]) + 0.587 * f32::from(p[g]) + 0.114 * f32::from(p[b])
             }));

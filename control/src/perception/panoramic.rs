@@ -118,8 +118,7 @@ impl<'a> RgbView<'a> {
     /// only through [`RgbView::luminance_weights`], which the caller takes from the encoding.
     ///
     /// # Errors
-    /// [`PerceptionError::BadDepthImage`] (reused for any image layout error) when the
-    /// stride or length does not fit.
+    /// [`PerceptionError::BadColourImage`] when the stride or length does not fit.
     pub fn new(
         width: usize,
         height: usize,
@@ -131,8 +130,8 @@ impl<'a> RgbView<'a> {
             || step < 3 * width
             || data.len() < step * (height - 1) + 3 * width
         {
-            return Err(PerceptionError::BadDepthImage {
-                reason: "colour image size, stride and data length disagree",
+            return Err(PerceptionError::BadColourImage {
+                reason: "size, stride and data length disagree",
                 encoding: "rgb8".to_owned(),
                 width: u32::try_from(width).unwrap_or(u32::MAX),
                 height: u32::try_from(height).unwrap_or(u32::MAX),

@@ -194,6 +194,32 @@ impl PinholeCamera {
     }
 }
 
+/// The pixel rows of `image` (each `width * bytes_per_pixel` bytes), once its step and
+/// buffer are checked to hold them; the reason otherwise.
+pub(crate) fn image_rows(
+    image: &Image,
+    bytes_per_pixel: usize,
+) -> Result<impl Iterator<Item = &[u8]>, &'static str> {
+    let (width, height, step) = (
+        image.width as usize,
+        image.height as usize,
+        image.step as usize,
+    );
+    let row_bytes = width * bytes_per_pixel;
+    if step < row_bytes {
+        return Err("step shorter than a row");
+    }
+    let needed = if height == 0 {
+        0
+    } else {
+        step * (height - 1) + row_bytes
+    };
+    if image.data.len() < needed {
+        return Err("data shorter than height * step");
+    }
+    Ok((0..height).filter_map(move |v| image.data.get(v * step..v * step + row_bytes)))
+}
+
 /// Per-pixel normalised rays `(x_n, y_n)` of a camera (row-major), computed once per camera.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RayTable {
@@ -272,34 +298,15 @@ impl DepthImage {
             step: image.step,
             bytes: image.data.len(),
         };
-        let (width, height, step) = (
-            image.width as usize,
-            image.height as usize,
-            image.step as usize,
-        );
+        let (width, height) = (image.width as usize, image.height as usize);
         let bytes_per_pixel = match image.encoding.as_str() {
             "32FC1" => 4,
             "16UC1" | "mono16" => 2,
             _ => return Err(bad("encoding must be 32FC1 (m) or 16UC1 (mm)")),
         };
-        if step < width * bytes_per_pixel {
-            return Err(bad("step shorter than a row"));
-        }
-        let needed = if height == 0 {
-            0
-        } else {
-            step * (height - 1) + width * bytes_per_pixel
-        };
-        if image.data.len() < needed {
-            return Err(bad("data shorter than height * step"));
-        }
         let big = image.is_bigendian != 0;
         let mut depth_m = Vec::with_capacity(width * height);
-        for v in 0..height {
-            let row = image
-                .data
-                .get(v * step..v * step + width * bytes_per_pixel)
-                .ok_or_else(|| bad("row out of range"))?;
+        for row in image_rows(image, bytes_per_pixel).map_err(bad)? {
             if bytes_per_pixel == 4 {
                 depth_m.extend(row.chunks_exact(4).map(|c| {
                     let b = [c[0], c[1], c[2], c[3]];
