@@ -60,16 +60,9 @@ impl LumaImage {
     /// From a `sensor_msgs/Image` in `rgb8`, `bgr8`, `rgba8`, `bgra8` or `mono8`.
     ///
     /// # Errors
-    /// [`PerceptionError::BadColourImage`] for another encoding or a short buffer.
+    /// [`PerceptionError::BadImage`] for another encoding or a short buffer.
     pub fn from_image(image: &Image) -> Result<Self, PerceptionError> {
-        let bad = |reason| PerceptionError::BadColourImage {
-            reason,
-            encoding: image.encoding.clone(),
-            width: image.width,
-            height: image.height,
-            step: image.step,
-            bytes: image.data.len(),
-        };
+        let bad = |reason| PerceptionError::bad_image("colour", image, reason);
         // (bytes per pixel, offsets of R, G, B)
         let (bpp, [r, g, b]) = match image.encoding.as_str() {
             "rgb8" => (3, [0, 1, 2]),
@@ -101,6 +94,31 @@ impl LumaImage {
             return None;
         }
         self.luma.get(v as usize * self.width + u as usize).copied()
+    }
+}
+
+/// The wrist colour image of the capture in progress, kept for the depth image of the same
+/// stamp that follows it: the runtime publishes a `CameraCapture` colour first
+/// (`msgs::drivers::CameraCapture`). Shared by the stages that confirm depth fits in colour.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PendingColour {
+    latest: Option<(u64, LumaImage)>,
+}
+
+impl PendingColour {
+    /// Keeps `image` (stamp `stamp_ns`). An image that cannot be read confirms nothing: it is
+    /// kept as the empty image, whose contrast counts as 0.
+    pub fn keep(&mut self, stamp_ns: u64, image: &Image) {
+        let luma = LumaImage::from_image(image).unwrap_or_default();
+        self.latest = Some((stamp_ns, luma));
+    }
+
+    /// The kept image when its stamp is `stamp_ns`; what was kept is dropped either way.
+    pub fn take_for(&mut self, stamp_ns: u64) -> Option<LumaImage> {
+        self.latest
+            .take()
+            .filter(|(stamp, _)| *stamp == stamp_ns)
+            .map(|(_, luma)| luma)
     }
 }
 
@@ -345,11 +363,29 @@ mod tests {
         short.data.pop();
         assert!(matches!(
             LumaImage::from_image(&short),
-            Err(PerceptionError::BadColourImage { .. })
+            Err(PerceptionError::BadImage {
+                image: "colour",
+                ..
+            })
         ));
         let mut depth = rgb;
         depth.encoding = "32FC1".to_owned();
         assert!(LumaImage::from_image(&depth).is_err());
+    }
+
+    #[test]
+    fn a_kept_colour_image_goes_only_to_the_depth_image_of_its_stamp() {
+        let image = bar_image(&camera(), 60.0, 180.0, 4.0);
+        let mut pending = PendingColour::default();
+        pending.keep(5, &image);
+        assert!(pending.take_for(6).is_none());
+        assert!(pending.take_for(5).is_none(), "a mismatch drops it");
+        pending.keep(5, &image);
+        assert_eq!(pending.take_for(5).map(|l| l.width), Some(320));
+        let mut bad = image;
+        bad.encoding = "32FC1".to_owned();
+        pending.keep(7, &bad);
+        assert_eq!(pending.take_for(7), Some(LumaImage::default()));
     }
 
     #[test]

@@ -55,29 +55,13 @@ pub enum PerceptionError {
         /// Focal length y (px).
         fy: f64,
     },
-    /// The depth image does not match the camera or has an unsupported layout.
+    /// A depth or colour image does not match the camera or has an unsupported layout.
     #[error(
-        "depth image: {reason} (encoding {encoding}, {width}x{height}, step {step}, {bytes} bytes)"
+        "{image} image: {reason} (encoding {encoding}, {width}x{height}, step {step}, {bytes} bytes)"
     )]
-    BadDepthImage {
-        /// What is wrong.
-        reason: &'static str,
-        /// Its encoding.
-        encoding: String,
-        /// Width (px).
-        width: u32,
-        /// Height (px).
-        height: u32,
-        /// Row stride (bytes).
-        step: u32,
-        /// Data length (bytes).
-        bytes: usize,
-    },
-    /// The colour image has an unsupported layout.
-    #[error(
-        "colour image: {reason} (encoding {encoding}, {width}x{height}, step {step}, {bytes} bytes)"
-    )]
-    BadColourImage {
+    BadImage {
+        /// Which image: `"depth"` or `"colour"`.
+        image: &'static str,
         /// What is wrong.
         reason: &'static str,
         /// Its encoding.
@@ -160,4 +144,24 @@ pub enum PerceptionError {
         /// Which input.
         what: &'static str,
     },
+}
+
+impl PerceptionError {
+    /// [`PerceptionError::BadImage`] for `message`, the `image` (`"depth"` or `"colour"`).
+    #[must_use]
+    pub fn bad_image(
+        image: &'static str,
+        message: &msgs::sensor_msgs::Image,
+        reason: &'static str,
+    ) -> Self {
+        Self::BadImage {
+            image,
+            reason,
+            encoding: message.encoding.clone(),
+            width: message.width,
+            height: message.height,
+            step: message.step,
+            bytes: message.data.len(),
+        }
+    }
 }

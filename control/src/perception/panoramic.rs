@@ -118,7 +118,7 @@ impl<'a> RgbView<'a> {
     /// only through [`RgbView::luminance_weights`], which the caller takes from the encoding.
     ///
     /// # Errors
-    /// [`PerceptionError::BadColourImage`] when the stride or length does not fit.
+    /// [`PerceptionError::BadImage`] when the stride or length does not fit.
     pub fn new(
         width: usize,
         height: usize,
@@ -130,7 +130,8 @@ impl<'a> RgbView<'a> {
             || step < 3 * width
             || data.len() < step * (height - 1) + 3 * width
         {
-            return Err(PerceptionError::BadColourImage {
+            return Err(PerceptionError::BadImage {
+                image: "colour",
                 reason: "size, stride and data length disagree",
                 encoding: "rgb8".to_owned(),
                 width: u32::try_from(width).unwrap_or(u32::MAX),

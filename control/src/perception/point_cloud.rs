@@ -288,16 +288,9 @@ impl DepthImage {
     /// either endianness.
     ///
     /// # Errors
-    /// [`PerceptionError::BadDepthImage`] for another encoding or a short buffer.
+    /// [`PerceptionError::BadImage`] for another encoding or a short buffer.
     pub fn from_image(image: &Image) -> Result<Self, PerceptionError> {
-        let bad = |reason| PerceptionError::BadDepthImage {
-            reason,
-            encoding: image.encoding.clone(),
-            width: image.width,
-            height: image.height,
-            step: image.step,
-            bytes: image.data.len(),
-        };
+        let bad = |reason| PerceptionError::bad_image("depth", image, reason);
         let (width, height) = (image.width as usize, image.height as usize);
         let bytes_per_pixel = match image.encoding.as_str() {
             "32FC1" => 4,
@@ -506,7 +499,11 @@ mod tests {
         let short = Image { step: 3, ..image };
         assert!(matches!(
             DepthImage::from_image(&short),
-            Err(PerceptionError::BadDepthImage { step: 3, .. })
+            Err(PerceptionError::BadImage {
+                image: "depth",
+                step: 3,
+                ..
+            })
         ));
     }
 }

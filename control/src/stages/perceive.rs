@@ -48,7 +48,7 @@ use robot::{ArmIk, IkSettings, JointKind, RobotModel, TfBuffer};
 use crate::motion::collision::{ArmCollisionModel, CollisionWorld};
 use crate::motion::planner;
 use crate::motion::trajectory::DEFAULT_DT_NS;
-use crate::perception::colour::LumaImage;
+use crate::perception::colour::PendingColour;
 use crate::perception::confidence::ConfidenceThresholds;
 use crate::perception::panoramic::{self, PanoramicParams, RgbView, WirePrior};
 use crate::perception::point_cloud::{DepthImage, PinholeCamera, RayTable, to_point_cloud2};
@@ -146,9 +146,7 @@ pub struct PerceiveStage {
     lift_m: f64,
     phase: Phase,
     observations: Vec<(WireObservation, Isometry3<f64>)>,
-    /// The last wrist colour image while capturing (stamp ns), for the depth image of the
-    /// same stamp that follows it (the runtime publishes a `CameraCapture` colour first).
-    colour: Option<(u64, LumaImage)>,
+    colour: PendingColour,
     captures_seen: usize,
 }
 
@@ -182,7 +180,7 @@ impl PerceiveStage {
             lift_m: 0.0,
             phase: Phase::Panoramic { attempts: 0 },
             observations: Vec::new(),
-            colour: None,
+            colour: PendingColour::default(),
             captures_seen: 0,
         })
     }
@@ -438,11 +436,9 @@ impl PerceiveStage {
                     .map_err(|e| e.to_string())?;
             let observation = wire::detect_wire(&depth, rays, camera.fx, &roi, &self.config.wire)
                 .map_err(|e| e.to_string())?;
-            let observation = match self.colour.take() {
-                Some((stamp, colour)) if stamp == stamp_ns => {
-                    observation.confirm_in_colour(&colour, camera)
-                }
-                _ => observation,
+            let observation = match self.colour.take_for(stamp_ns) {
+                Some(colour) => observation.confirm_in_colour(&colour, camera),
+                None => observation,
             };
             Ok((observation, base_from_camera))
         })();
@@ -593,9 +589,7 @@ impl Stage for PerceiveStage {
             (PANORAMIC_IMAGE, Msg::Image(image)) => self.on_panoramic(log_time, image),
             (CAMERA_COLOR_IMAGE, Msg::Image(image)) => {
                 if self.phase == Phase::Capturing {
-                    // Unreadable colour confirms nothing: an empty image counts as contrast 0.
-                    let luma = LumaImage::from_image(image).unwrap_or_default();
-                    self.colour = Some((time_ns(&image.header.stamp), luma));
+                    self.colour.keep(time_ns(&image.header.stamp), image);
                 }
                 Vec::new()
             }

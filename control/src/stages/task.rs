@@ -78,7 +78,7 @@ use crate::motion::collision::{ArmCollisionModel, CollisionWorld, Payload};
 use crate::motion::lift::{LiftParams, choose_lift};
 use crate::motion::planner::{self, ArmPlan};
 use crate::motion::trajectory::DEFAULT_DT_NS;
-use crate::perception::colour::LumaImage;
+use crate::perception::colour::{LumaImage, PendingColour};
 use crate::perception::confidence::ConfidenceThresholds;
 use crate::perception::handle::{HandleModel, fit_handle};
 use crate::perception::panoramic::{self, PanoramicParams, RgbView};
@@ -514,9 +514,7 @@ pub struct TaskStage {
     rod: Rod,
     attempts: usize,
     captures: Vec<Capture>,
-    /// The last wrist colour image during a capture (stamp ns), for the depth image of the
-    /// same stamp that follows it (the runtime publishes a `CameraCapture` colour first).
-    colour: Option<(u64, LumaImage)>,
+    colour: PendingColour,
     panoramic_image: Option<Image>,
     calibration_answer: Option<TaskEvent>,
     /// Why the drift check could not tell, while the recalibration that answers it runs.
@@ -606,7 +604,7 @@ impl TaskStage {
             rod,
             attempts: 0,
             captures: Vec::new(),
-            colour: None,
+            colour: PendingColour::default(),
             panoramic_image: None,
             calibration_answer: None,
             unverified_check: None,
@@ -2610,10 +2608,7 @@ impl TaskStage {
         {
             return;
         }
-        // An image that cannot be read cannot confirm anything: an empty one counts as
-        // contrast 0 (`WireObservation::confirm_in_colour`).
-        let luma = LumaImage::from_image(image).unwrap_or_default();
-        self.colour = Some((time_ns(&image.header.stamp), luma));
+        self.colour.keep(time_ns(&image.header.stamp), image);
     }
 
     fn on_depth(&mut self, image: &Image) {
@@ -2644,14 +2639,9 @@ impl TaskStage {
             self.end(&stop);
             return;
         };
-        let colour = self
-            .colour
-            .take()
-            .filter(|(stamp, _)| *stamp == stamp_ns)
-            .map(|(_, luma)| luma);
         self.captures.push(Capture {
             depth,
-            colour,
+            colour: self.colour.take_for(stamp_ns),
             base_from_camera: base_from_tool0 * self.tool0_from_camera(stamp_ns),
             stamp: image.header.stamp,
         });
