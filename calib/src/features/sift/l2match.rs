@@ -12,13 +12,14 @@
 //!
 //! Kernel ([`BlockedTrain`], [`best_two`]): the dot-product form makes the scan a small
 //! matrix product. Train descriptors are stored in blocks of [`BLOCK`], dimension-major
-//! within a block, and [`QUERY_TILE`] queries share each loaded block, so one train vector
-//! feeds `QUERY_TILE` multiply-adds of 16 lanes (run with AVX-512 or AVX2 by
-//! [`simd::dispatch_at`], one accumulator register per query); a block whose minimum does not
-//! beat a query's second-best distance is skipped, the others are walked in index order, so
-//! the result is exactly the plain sequential scan's. Queries are split into blocks for
-//! rayon and each query's result depends only on that query, so the output does not depend
-//! on the thread count.
+//! within a block, and [`QUERY_TILE`] queries share each block: for every entry `k`, each
+//! query adds `q_k` times the block's row `k` to its row of dot products, a contiguous loop
+//! the compiler vectorises (run with AVX-512 or AVX2 by [`simd::dispatch_at`]; the
+//! `QUERY_TILE` x `BLOCK` accumulators stay in L1, each loaded train row serves every query
+//! of the tile). A block whose minimum does not beat a query's second-best distance is
+//! skipped, the others are walked in index order, so the result is exactly the plain
+//! sequential scan's. Queries are split into blocks for rayon and each query's result
+//! depends only on that query, so the output does not depend on the thread count.
 
 use rayon::prelude::*;
 
@@ -292,29 +293,38 @@ mod tests {
     }
 
     /// The blocked kernel equals the sequential scan bit for bit at every vector level, for
-    /// train sets that do not fill their last block, query counts that do not fill their
-    /// last tile, and duplicated train descriptors (ties go to the lower index).
+    /// train sets that fill their last block exactly, by one, or leave it short, query
+    /// counts that do not fill their last tile, and duplicates across blocks (ties go to
+    /// the lower index).
     #[test]
     fn blocked_kernel_equals_the_sequential_scan_at_every_level() {
-        let mut train: Vec<SiftDescriptor> = (0..37).map(|i| desc(1000 + i)).collect();
-        train.push(train[5]);
-        train.push(train[20]);
+        let mut train: Vec<SiftDescriptor> =
+            (0..2 * BLOCK as u64 + 1).map(|i| desc(1000 + i)).collect();
+        // Duplicates in a later block than their originals.
+        train[BLOCK + 3] = train[5];
+        train[2 * BLOCK] = train[20];
         // Extreme entries: the norm bound of the module docs is reached.
-        train.push([255.0; 128]);
-        train.push([0.0; 128]);
-        let mut queries: Vec<SiftDescriptor> = (0..11).map(|i| desc(2000 + i)).collect();
+        train[BLOCK - 1] = [255.0; 128];
+        train[BLOCK] = [0.0; 128];
+        let mut queries: Vec<SiftDescriptor> =
+            (0..QUERY_TILE as u64 + 3).map(|i| desc(5000 + i)).collect();
         queries.push(train[20]);
+        queries.push(train[5]);
         queries.push([0.0; 128]);
         queries.push([255.0; 128]);
-        let expected: Vec<Best> = queries.iter().map(|q| naive_nearest(q, &train)).collect();
-        assert_eq!(expected[11].index, 20, "a duplicate keeps the lower index");
-        assert_eq!(expected[11].d1, 0.0);
+        assert_ne!(queries.len() % QUERY_TILE, 0, "a short last tile");
+        let dup = naive_nearest(&train[20], &train);
+        assert_eq!(
+            (dup.index, dup.d1),
+            (20, 0.0),
+            "a duplicate keeps the lower index"
+        );
         for level in [
             simd::Level::Baseline,
             simd::Level::Avx2,
             simd::Level::Avx512,
         ] {
-            for n_train in [1, 15, 16, 17, train.len()] {
+            for n_train in [1, 17, BLOCK - 1, BLOCK, BLOCK + 1, train.len()] {
                 let t = &train[..n_train];
                 let blocked = BlockedTrain::new(t);
                 let mut out = vec![NONE; queries.len()];
