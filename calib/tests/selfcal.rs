@@ -326,7 +326,8 @@ fn known_matches(
         calib::selfcal::pairs::PairMatches {
             i: 0,
             j: 1,
-            hand_rotation_deg: 0.0,
+            // The camera rotates by the hand's angle (rigid mount).
+            hand_rotation_deg: a01.rotation.angle().to_degrees(),
             raw_matches: n,
             coords,
             levels: vec![[0, 0]; n],
@@ -346,7 +347,7 @@ fn pair_motion_flags_as_inliers_only_matches_consistent_with_the_motion() {
     assert!(good > 100 && bad > 20, "{good} good, {bad} bad matches");
     let params = SelfCalParams::default();
     let rgbd = rgbd_motion(&views[0], &views[1], &cam, &m, &params, 1).expect("3D-3D motion");
-    let mono = mono_motion(&cam, &m, &params, 1).expect("essential motion");
+    let mono = mono_motion(&cam, &m, &params, 1, None).expect("essential motion");
     for (name, est) in [("rgbd", &rgbd), ("mono", &mono)] {
         let flags = &est.match_inliers;
         assert_eq!(flags.len(), m.coords.len(), "{name}: one flag per match");

@@ -41,6 +41,7 @@
 pub mod camera;
 pub mod essential;
 pub mod fundamental;
+pub mod homography;
 pub mod ransac;
 pub mod refine;
 pub mod rigid3d;

@@ -26,7 +26,8 @@
 //! 3. Relative camera motion per pair ([`motion`]): RGB-D: keypoints back-projected with their
 //!    registered depth through the undistorted camera model, 3D-3D RANSAC + Umeyama + depth-
 //!    noise-weighted refinement; mono: undistorted normalised points, 5-point essential
-//!    RANSAC with cheirality, `|t_A| = 1`.
+//!    LO-RANSAC with cheirality, `|t_A| = 1`, every hypothesis constrained to rotate by the
+//!    hand's angle (screw congruence, [`SelfCalParams::mono_angle_tolerance_deg`]).
 //! 4. Linear initialisation over all pairs (the paper's Kronecker form, [`crate::handeye`]),
 //!    then Levenberg-Marquardt on the pose residuals (`ours`, Huber); pairs whose rotation
 //!    residual exceeds `max_pair_residual_factor` x the median (at least
@@ -60,6 +61,15 @@
 //! the per-pair scales are in [`pipeline::PairReport::scale`]. The eq. 15 point refinement
 //! runs in RGB-D mode only (mono points would carry the per-pair scales).
 //!
+//! **Two rounds in mono.** A scene dominated by one plane (a cabinet face) leaves the
+//! essential matrix weakly determined, so blind estimates scatter by degrees. The X of a
+//! first round (no consistency refusal) predicts every pair's motion `A = X^-1 B X`; each
+//! pair is re-estimated from that prediction by Sampson refinement with guided inlier
+//! selection ([`crate::relpose::essential::refine_essential_guided`], free to move away from
+//! the prediction), keeping its blind estimate where that fails, and the second round is
+//! solved and checked. On the simulated cabinet views (640x512, noise 0.05) this lowered
+//! the median pair rotation residual from 1.61 to 1.27 deg.
+//!
 //! # Over the log ([`stage`])
 //!
 //! The calibration stage runs this pipeline over the message stream: it pairs every capture
@@ -85,6 +95,7 @@
 //! same stamp ([`messages`]). Ground truth (`/sim/...`) is never read.
 
 pub mod drift;
+pub mod epipolar;
 pub mod messages;
 pub mod motion;
 pub mod pairs;
@@ -286,6 +297,9 @@ pub enum SelfCalError {
         sigma_trans_mm: f64,
         /// The limits applied.
         limits: ConsistencyLimits,
+        /// The X that was refused: for analysing the failure (and for experiments that score
+        /// what a refusal prevented), never to be used as a calibration.
+        refused_tool0_from_camera: Box<nalgebra::Isometry3<f64>>,
     },
     /// The hand-eye solver refused the motions (degenerate motion etc.).
     #[error("hand-eye solve: {0}")]

@@ -7,13 +7,15 @@
 //!   [`estimate_rigid_ransac`] (3-point RANSAC, Umeyama/Horn, depth-noise-weighted LM) gives
 //!   `cam_i_from_cam_j` in metres and its inlier point pairs (kept for eq. 15).
 //! - Mono: normalised undistorted points, [`estimate_essential_ransac`] (5-point, Sampson,
-//!   cheirality, LM on `SO(3) x S^2`): `cam_i_from_cam_j` with `|t| = 1`.
+//!   cheirality, LM on `SO(3) x S^2`): `cam_i_from_cam_j` with `|t| = 1`, constrained to
+//!   rotate by the hand's angle ([`SelfCalParams::mono_angle_tolerance_deg`]).
 
 use nalgebra::{Isometry3, Matrix3, Point2, Point3, Vector3};
 
 use super::pairs::{PairMatches, PairRejection};
 use super::pipeline::SelfCalParams;
 use super::views::CalibView;
+use crate::relpose::essential::{RotationAnglePrior, refine_essential_guided};
 use crate::relpose::{CameraModel, estimate_essential_ransac, estimate_rigid_ransac};
 
 /// Largest relative depth step between a keypoint's pixel and its 4-neighbours (2%).
@@ -144,17 +146,29 @@ pub fn rgbd_motion(
 /// Monocular motion of a pair (module docs); the essential inlier threshold
 /// ([`SelfCalParams::essential_threshold_px`]) is converted with the mean focal length.
 ///
+/// `guess`: `None` searches blindly ([`estimate_essential_ransac`]); `Some(A)` refines from
+/// the motion `A = X^-1 B X` a first hand-eye estimate predicts
+/// ([`refine_essential_guided`], the second round of [`super::self_calibrate`] in mono).
+///
 /// # Errors
 /// [`PairRejection::Motion`] (undistortion failures drop single points; estimator refusals:
-/// too few points, pure rotation, no consensus).
+/// too few points, pure rotation, no consensus, a rotation angle unlike the hand's).
 pub fn mono_motion(
     camera: &CameraModel,
     matches: &PairMatches,
     params: &SelfCalParams,
     seed: u64,
+    guess: Option<&Isometry3<f64>>,
 ) -> Result<PairMotion, PairRejection> {
     let coords = &matches.coords;
     let threshold_px = params.essential_threshold_px;
+    let prior = params
+        .mono_angle_tolerance_deg
+        .map(|tol| RotationAnglePrior {
+            angle_rad: matches.hand_rotation_deg.to_radians(),
+            tolerance_rad: tol.to_radians(),
+        });
+    let planar = params.mono_planar_support_ratio;
     let params = &params.essential;
     let mut x_i = Vec::with_capacity(coords.len());
     let mut x_j = Vec::with_capacity(coords.len());
@@ -172,10 +186,15 @@ pub fn mono_motion(
     let mut ep = *params;
     ep.inlier_threshold = threshold_px / f;
     ep.pure_rotation_threshold_rad = 2.0 * threshold_px / f;
-    let est =
-        estimate_essential_ransac(&x_i, &x_j, &ep, seed).map_err(|e| PairRejection::Motion {
-            reason: e.to_string(),
-        })?;
+    ep.rotation_angle_prior = prior;
+    ep.planar_support_ratio = planar;
+    let est = match guess {
+        None => estimate_essential_ransac(&x_i, &x_j, &ep, seed),
+        Some(a) => refine_essential_guided(&x_i, &x_j, a, &ep, seed),
+    }
+    .map_err(|e| PairRejection::Motion {
+        reason: e.to_string(),
+    })?;
     Ok(PairMotion {
         cam_i_from_cam_j: est.a_from_b,
         inliers: est.inlier_count,

@@ -5,9 +5,10 @@
 //! collection, each pair's RANSAC has its own seed ([`pair_seed`]), all reductions are
 //! sequential: the result does not depend on the thread count.
 
-use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Point2, Point3, Translation3, UnitQuaternion, Vector3};
 use rayon::prelude::*;
 
+use super::epipolar::{EpipolarPair, EpipolarParams, refine_epipolar};
 use super::motion::{PairMotion, mono_motion, mono_translation, pair_seed, rgbd_motion};
 use super::pairs::{
     PairMatches, PairRejection, Refused, RejectionCounts, candidate_pairs, extract_features,
@@ -49,6 +50,21 @@ pub struct SelfCalParams {
     pub essential: EssentialParams,
     /// Sampson inlier threshold, pixels (default 1.0).
     pub essential_threshold_px: f64,
+    /// Mono: the camera motion of a pair must rotate by the hand's angle within this many
+    /// degrees, as a rigid mount makes it ([`crate::relpose::essential::RotationAnglePrior`]);
+    /// `None` estimates `E` without the prior. Default 3 (the hand-eye solvers' own
+    /// consistency limit).
+    pub mono_angle_tolerance_deg: Option<f64>,
+    /// Mono: take a pair's motion from its homography when one explains at least this
+    /// fraction of the essential matrix's inliers
+    /// ([`crate::relpose::EssentialParams::planar_support_ratio`]); default `None`: on the
+    /// simulated cabinet views (a face with handles, 640x512) the homography path took more
+    /// pairs but with larger residuals (X rotation error 0.29-0.76 deg with it at 0.8,
+    /// 0.26-0.60 deg without, three trials), so only a truly planar scene should turn it on.
+    pub mono_planar_support_ratio: Option<f64>,
+    /// Mono: refine X on all used pairs' epipolar constraints with the metric hand
+    /// translations ([`super::epipolar`]); default true.
+    pub mono_epipolar_refinement: bool,
     /// Hand-eye solver options (default `ours`, Huber; `scale_free` is set by the mode).
     pub handeye: HandEyeOptions,
     /// RGB-D: finish with the eq. 15 point refinement ([`super::refine`]; default false: with
@@ -138,6 +154,9 @@ impl Default for SelfCalParams {
             min_depth_points: 12,
             essential: EssentialParams::default(),
             essential_threshold_px: 1.0,
+            mono_angle_tolerance_deg: Some(3.0),
+            mono_planar_support_ratio: None,
+            mono_epipolar_refinement: true,
             handeye: HandEyeOptions::default(),
             refine_eq15: false,
             eq15: Eq15Params::default(),
@@ -350,7 +369,7 @@ pub fn pair_motions(
                         need: params.min_matches,
                     }),
                 },
-                Mode::Mono => mono_motion(camera, m, params, seed),
+                Mode::Mono => mono_motion(camera, m, params, seed, None),
             }
         })
         .collect();
@@ -395,13 +414,146 @@ pub fn self_calibrate(
     camera: &CameraModel,
     params: &SelfCalParams,
 ) -> Result<SelfCalResult, SelfCalError> {
+    let motions = pair_motions(views, camera, params)?;
+    match motions.mode {
+        Mode::Rgbd => solve_pair_motions(views, camera, params, motions, Check::Consistency),
+        Mode::Mono => {
+            // Round 1 (blind essential matrices) gives X_1; round 2 re-estimates every pair
+            // from the motion X_1^-1 B X_1 predicts (module docs of [`super`]) and is the one
+            // that must pass the consistency refusal.
+            let first = solve_pair_motions(views, camera, params, motions.clone(), Check::None)?;
+            let guided = guided_mono_motions(views, camera, params, motions, &first.solution);
+            solve_pair_motions(views, camera, params, guided, Check::Consistency)
+        }
+    }
+}
+
+/// Mono: X refined on all used pairs' epipolar constraints ([`super::epipolar`]); the
+/// motions' per-pair scales and the solution's residual medians then follow the new X.
+/// Its 1-sigma replaces the pair-scatter uncertainty. `false` (X left as it was) when the
+/// refinement cannot run.
+fn refine_mono_epipolar(
+    camera: &CameraModel,
+    params: &SelfCalParams,
+    matches: &[PairMatches],
+    reports: &[PairReport],
+    motions: &mut [RelativeMotion],
+    solution: &mut HandEyeSolution,
+) -> bool {
+    let used = used_indices(reports);
+    let pairs: Vec<EpipolarPair> = used
+        .iter()
+        .filter_map(|&k| {
+            let (m, rm) = (matches.get(k)?, motions.get(k)?);
+            let (mut x_i, mut x_j) = (Vec::new(), Vec::new());
+            for (c, _) in m.coords.iter().zip(&m.motion_inliers).filter(|(_, f)| **f) {
+                let a = camera.undistort_pixel(&Point2::new(f64::from(c[0]), f64::from(c[1])));
+                let b = camera.undistort_pixel(&Point2::new(f64::from(c[2]), f64::from(c[3])));
+                if let (Ok(a), Ok(b)) = (a, b) {
+                    x_i.push(a);
+                    x_j.push(b);
+                }
+            }
+            Some(EpipolarPair {
+                hand: rm.b,
+                x_i,
+                x_j,
+            })
+        })
+        .collect();
+    let ep = EpipolarParams {
+        huber: params.essential_threshold_px / (0.5 * (camera.fx + camera.fy)),
+        ..EpipolarParams::default()
+    };
+    let Some(rep) = refine_epipolar(&pairs, &solution.tool0_from_camera, &ep) else {
+        return false;
+    };
+    let x = rep.tool0_from_camera;
+    solution.tool0_from_camera = x;
+    let current: Vec<_> = motions.iter().map(|m| (m.a, m.b, m.weight)).collect();
+    for (m, s) in motions.iter_mut().zip(scales_from_x(&current, &x)) {
+        if s > 0.0 {
+            m.a =
+                Isometry3::from_parts(Translation3::from(m.a.translation.vector * s), m.a.rotation);
+        }
+    }
+    let (rot, trans): (Vec<f64>, Vec<f64>) = used
+        .iter()
+        .filter_map(|&k| motions.get(k))
+        .map(|m| {
+            let (r, t) = pair_residual(m, &x, 1.0);
+            (r.norm().to_degrees(), t.norm() * 1e3)
+        })
+        .unzip();
+    solution.residual_rot_deg = median(rot);
+    solution.residual_trans_mm = median(trans);
+    // Each view's keypoints recur in about (pairs / independent motions) pairs, so the
+    // residuals are not independent: the covariance's variance is inflated by that factor.
+    let reuse = (used.len() as f64 / independent_motions(reports).max(1) as f64).max(1.0);
+    solution.sigma_rot_deg = rep.sigma_rot_deg * reuse.sqrt();
+    solution.sigma_trans_mm = rep.sigma_trans_mm * reuse.sqrt();
+    true
+}
+
+/// Whether [`solve_pair_motions`] applies the consistency refusal.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Check {
+    /// A first round whose X only guides the second.
+    None,
+    /// The final round ([`ConsistencyLimits`]).
+    Consistency,
+}
+
+/// Mono round 2: every candidate pair with enough matches re-estimated by
+/// [`mono_motion`] from the motion `A = X^-1 B X` that `first` predicts; where that fails,
+/// the round-1 estimate is kept.
+fn guided_mono_motions(
+    views: &[CalibView],
+    camera: &CameraModel,
+    params: &SelfCalParams,
+    mut motions: PairMotions,
+    first: &HandEyeSolution,
+) -> PairMotions {
+    let x = first.tool0_from_camera;
+    motions.estimates = motions
+        .matches
+        .par_iter()
+        .zip(&motions.estimates)
+        .map(|(m, old)| {
+            if m.coords.len() < params.min_matches {
+                return old.clone();
+            }
+            let Some(b) = hand_motion(views, m.i, m.j) else {
+                return old.clone();
+            };
+            let guess = x.inverse() * b * x;
+            let seed = pair_seed(params.seed, m.i, m.j);
+            // A first X far off (few pairs) can mislead the guided inlier selection: the
+            // blind estimate then stands.
+            match mono_motion(camera, m, params, seed, Some(&guess)) {
+                Ok(guided) => Ok(guided),
+                Err(e) => old.clone().map_err(|_| e),
+            }
+        })
+        .collect();
+    motions
+}
+
+/// The hand-eye solution from the pair motions (the body of [`self_calibrate`]).
+fn solve_pair_motions(
+    views: &[CalibView],
+    camera: &CameraModel,
+    params: &SelfCalParams,
+    motions: PairMotions,
+    check: Check,
+) -> Result<SelfCalResult, SelfCalError> {
     let PairMotions {
         mode,
         features_per_view,
         mut matches,
         estimates,
         small,
-    } = pair_motions(views, camera, params)?;
+    } = motions;
     for (m, est) in matches.iter_mut().zip(&estimates) {
         if let Ok(pm) = est {
             m.motion_inliers.clone_from(&pm.match_inliers);
@@ -481,14 +633,25 @@ pub fn self_calibrate(
 
     let mut opts = params.handeye.clone();
     opts.scale_free = false; // mono: metric per-pair scales (module docs)
+    let mut epipolar = false;
     let (mut solution, linear, eq15) = match mode {
         Mode::Rgbd => solve_rgbd(&mut reports, &motions, &points, &sigmas, &opts, params)?,
-        Mode::Mono => solve_mono(&mut reports, &mut motions, &opts, params)?,
+        Mode::Mono => {
+            let (mut sol, linear, eq15) = solve_mono(&mut reports, &mut motions, &opts, params)?;
+            epipolar = params.mono_epipolar_refinement
+                && refine_mono_epipolar(camera, params, &matches, &reports, &mut motions, &mut sol);
+            (sol, linear, eq15)
+        }
     };
 
     solution.views = views.len();
-    reestimate_uncertainty(&reports, &motions, mode, &opts, &mut solution);
-    check_consistency(&reports, &solution, mode, &params.consistency)?;
+    if !epipolar {
+        // (The epipolar refinement sets the uncertainty of its own estimate.)
+        reestimate_uncertainty(&reports, &motions, mode, &opts, &mut solution);
+    }
+    if check == Check::Consistency {
+        check_consistency(&reports, &solution, mode, &params.consistency)?;
+    }
     // Final per-pair residuals (metric eye translations).
     let x = solution.tool0_from_camera;
     for (k, rep) in reports.iter_mut().enumerate().take(n_motion) {
@@ -619,6 +782,7 @@ fn check_consistency(
             sigma_rot_deg: s.sigma_rot_deg,
             sigma_trans_mm: s.sigma_trans_mm,
             limits: *limits,
+            refused_tool0_from_camera: Box::new(s.tool0_from_camera),
         }),
     }
 }

@@ -737,7 +737,11 @@ impl CalibrationStage {
             return (TaskEvent::REFUSED, "cannot_tell", text);
         };
         let params = DriftParams {
-            selfcal: self.selfcal_params(&camera),
+            selfcal: SelfCalParams {
+                // As the drift check's defaults (see DriftParams::selfcal).
+                mono_angle_tolerance_deg: DriftParams::default().selfcal.mono_angle_tolerance_deg,
+                ..self.selfcal_params(&camera)
+            },
             ..DriftParams::default()
         };
         let report = check_drift(&self.views, &camera, &self.tool0_from_camera, &params);
