@@ -55,8 +55,8 @@ fn check_cells(cells: &serde_json::Value, expected: usize) {
 fn calibration_experiments_smoke_runs() {
     let tmp = tempfile::tempdir().expect("tempdir");
     let noise = run_experiment("noise", &tmp.path().join("noise"));
-    // 6 noise levels x 3 methods.
-    check_cells(&noise["sections"]["cells"], 18);
+    // 6 noise levels x 4 methods (ours-rgbd, ours-mono, ours-mono-unchecked, zhi).
+    check_cells(&noise["sections"]["cells"], 24);
     for stem in ["noise_e_r", "noise_e_t"] {
         for ext in ["png", "svg"] {
             let p = tmp.path().join("noise/plots").join(format!("{stem}.{ext}"));
@@ -64,14 +64,14 @@ fn calibration_experiments_smoke_runs() {
         }
     }
     let motions = run_experiment("motions", &tmp.path().join("motions"));
-    // 12..=18 motions x 3 methods.
-    check_cells(&motions["sections"]["cells"], 21);
+    // 12..=18 motions x 4 methods.
+    check_cells(&motions["sections"]["cells"], 28);
     assert!(
         tmp.path()
             .join("motions/plots/motions_median_e_t.png")
             .is_file()
     );
     let datasets = run_experiment("datasets", &tmp.path().join("datasets"));
-    check_cells(&datasets["sections"]["simulator"], 3);
+    check_cells(&datasets["sections"]["simulator"], 4);
     assert!(datasets["sections"]["paper_improvement"].is_array());
 }
