@@ -438,6 +438,7 @@ fn selfcal_mono_sigma_020_two_pairs_refused_not_returned() {
     // What the unchecked pipeline would have returned.
     let mut unchecked = SelfCalParams::default();
     unchecked.consistency.min_dof = 0;
+    unchecked.consistency.min_mono_pairs = 0;
     unchecked.consistency.max_sigma_rot_deg = f64::INFINITY;
     unchecked.consistency.max_sigma_trans_mm = f64::INFINITY;
     if let Ok(r) = self_calibrate(&views, &cam, &unchecked) {

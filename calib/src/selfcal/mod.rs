@@ -268,9 +268,10 @@ pub enum SelfCalError {
     },
     /// The final X fails a consistency rule ([`ConsistencyLimits`]): it is not returned.
     #[error(
-        "inconsistent {mode} self-calibration refused ({rule}): {pairs_used} of {pairs_with_motion} pairs with a camera motion used (need {:.0}%), {dof} residual degrees of freedom (need {}), median residual {residual_rot_deg:.3} deg / {residual_trans_mm:.2} mm (limit {} deg), 1-sigma {sigma_rot_deg:.3} deg / {sigma_trans_mm:.2} mm (limits {} deg / {} mm); the views do not determine X reliably: capture more views that overlap (a textured, well-lit scene at the working distance, wrist rotations of 10-40 deg between neighbours){}",
+        "inconsistent {mode} self-calibration refused ({rule}): {pairs_used} of {pairs_with_motion} pairs with a camera motion used (need {:.0}%), {dof} residual degrees of freedom (need {}{}), median residual {residual_rot_deg:.3} deg / {residual_trans_mm:.2} mm (limit {} deg), 1-sigma {sigma_rot_deg:.3} deg / {sigma_trans_mm:.2} mm (limits {} deg / {} mm); the views do not determine X reliably: capture more views that overlap (a textured, well-lit scene at the working distance, wrist rotations of 10-40 deg between neighbours){}",
         100.0 * limits.min_kept_fraction,
         limits.min_dof,
+        if *mode == Mode::Mono { format!(" and {} pairs", limits.min_mono_pairs) } else { String::new() },
         limits.max_residual_rot_deg,
         limits.max_sigma_rot_deg,
         limits.max_sigma_trans_mm,
