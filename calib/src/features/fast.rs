@@ -3,15 +3,14 @@
 //!
 //! A pixel `p` with intensity `I_p` is a corner at threshold `t` when 9 contiguous pixels of
 //! the 16-pixel Bresenham circle of radius 3 are all brighter than `I_p + t` or all darker
-//! than `I_p - t`. Any arc of 9 contains one pixel of each opposite pair `{i, i + 8}`, so a
-//! pixel lacking a bright (dark) pixel in any of the 8 pairs is rejected early; that test
-//! runs over whole rows and vectorises. Blocks of 16 columns holding a survivor then get
-//! the exact test for all 16 columns at once (byte lanes), and only corners are scored.
-//! The corner score is the largest
-//! margin that still makes `p` a corner:
+//! than `I_p - t`. The corner score is the largest margin that still makes `p` a corner:
 //! `score = max over arcs A of min_{i in A} |I_i - I_p|` (bright arcs with `I_i - I_p`, dark
-//! with `I_p - I_i`), so `p` is a corner at every `t < score`. Non-maximum suppression keeps
-//! a corner whose score beats its 8 neighbours (ties: the earlier one in raster order wins).
+//! with `I_p - I_i`), so `p` is a corner at `t` exactly when `score > t`. We therefore
+//! compute the score of every pixel, 64 pixels at a time on byte lanes (saturating
+//! differences, windowed minima by doubling; it vectorises with no branch), and threshold
+//! it: the segment test and the scoring are one computation. Non-maximum suppression
+//! keeps a corner whose score beats its 8 neighbours (ties: the earlier one in raster order
+//! wins).
 
 use super::gray::GrayView;
 use super::simd;
@@ -63,43 +62,32 @@ pub struct Rect {
     pub y1: usize,
 }
 
-/// [`FastDetector::scan`] as a [`simd::Kernel`].
-struct Scan<'a, 'b> {
+/// [`FastDetector::detect`] as a [`simd::Kernel`].
+struct Detect<'a, 'b> {
     det: &'a mut FastDetector,
     img: &'a GrayView<'b>,
-    x0: usize,
-    x1: usize,
-    y0: usize,
-    y1: usize,
+    scored: Rect,
+    inner: Rect,
     t: u8,
+    nonmax: bool,
+    out: &'a mut Vec<Corner>,
 }
 
-impl simd::Kernel for Scan<'_, '_> {
+impl simd::Kernel for Detect<'_, '_> {
     type Output = ();
     #[inline(always)]
     fn run(self) {
         let Self {
             det,
             img,
-            x0,
-            x1,
-            y0,
-            y1,
+            scored,
+            inner,
             t,
+            nonmax,
+            out,
         } = self;
-        det.scan_rows(img, x0, x1, y0, y1, t);
+        det.detect_body(img, scored, inner, t, nonmax, out);
     }
-}
-
-/// True when the circular 16-bit mask has 9 contiguous set bits.
-#[inline(always)]
-fn has_arc9(mask: u32) -> bool {
-    let m = mask | (mask << 16);
-    let r = m & (m >> 1); // runs of 2
-    let r = r & (r >> 2); // runs of 4
-    let r = r & (r >> 4); // runs of 8
-    let r = r & (m >> 8); // runs of 9
-    r & 0xFFFF != 0
 }
 
 /// The FAST score of a pixel from its 16 circle differences `d_i = I_i - I_p`: the best
@@ -133,14 +121,16 @@ fn arc_score(d: &[i16; 16]) -> u8 {
 /// A FAST detector with reusable buffers (no allocation after warm-up).
 #[derive(Clone, Debug, Default)]
 pub struct FastDetector {
-    /// Score image of the last call (zero except transiently at corners).
+    /// Scores of the last scan over the scanned rectangle plus a one-pixel frame of zeros
+    /// (row-major, `scores_w` wide): the score where it beats the threshold, else 0.
     scores: Vec<u8>,
     scores_w: usize,
-    /// Early-test result for one row.
-    cand: Vec<u8>,
-    /// Corners before non-maximum suppression.
-    raw: Vec<Corner>,
+    /// One row of surviving scores (0 where suppressed or no corner).
+    kept: Vec<u8>,
 }
+
+/// Pixels scored together: one 512-bit vector of bytes.
+const LANES: usize = 64;
 
 impl FastDetector {
     /// A detector with empty buffers.
@@ -152,6 +142,11 @@ impl FastDetector {
     /// (clipped so the circle stays inside the image), in raster order; with `nonmax`,
     /// only local maxima of the score (over the 8-neighbourhood, neighbours outside `rect`
     /// included) are kept.
+    ///
+    /// Every corner carries its score, which does not depend on `threshold`; so the
+    /// corners at a higher threshold `t'` are exactly those of this call with
+    /// `score > t'`, suppression included (a neighbour that is a corner at `threshold` but
+    /// not at `t'` has a score `<= t'` below the corner's and cannot suppress it).
     pub fn detect(
         &mut self,
         img: &GrayView<'_>,
@@ -172,8 +167,7 @@ impl FastDetector {
         if x0 >= x1 || y0 >= y1 {
             return;
         }
-        self.raw.clear();
-        // Scan a one-pixel margin too, so suppression sees neighbours outside the rect.
+        // Score a one-pixel margin too, so suppression sees neighbours outside the rect.
         let (sx0, sx1, sy0, sy1) = if nonmax {
             (
                 x0.saturating_sub(1).max(r),
@@ -184,65 +178,106 @@ impl FastDetector {
         } else {
             (x0, x1, y0, y1)
         };
-        self.scan(img, sx0, sx1, sy0, sy1, threshold);
-        if !nonmax {
-            out.extend(self.raw.iter().copied());
-            return;
-        }
-        if self.scores.len() != w * h || self.scores_w != w {
-            self.scores.clear();
-            self.scores.resize(w * h, 0);
-            self.scores_w = w;
-        }
-        for c in &self.raw {
-            self.scores[c.y as usize * w + c.x as usize] = c.score;
-        }
-        for c in &self.raw {
-            let (x, y) = (c.x as usize, c.y as usize);
-            if x < x0 || x >= x1 || y < y0 || y >= y1 {
-                continue;
-            }
-            let s = c.score;
-            let at = |xx: usize, yy: usize| self.scores[yy * w + xx];
-            // Earlier neighbours (raster order) must be strictly lower, later ones not higher.
-            let keep = s > at(x - 1, y - 1)
-                && s > at(x, y - 1)
-                && s > at(x + 1, y - 1)
-                && s > at(x - 1, y)
-                && s >= at(x + 1, y)
-                && s >= at(x - 1, y + 1)
-                && s >= at(x, y + 1)
-                && s >= at(x + 1, y + 1);
-            if keep {
-                out.push(*c);
-            }
-        }
-        for c in &self.raw {
-            self.scores[c.y as usize * w + c.x as usize] = 0;
-        }
-    }
-
-    /// Collects all corners (no suppression) with centres in `[x0,x1) x [y0,y1)` into `raw`,
-    /// at the CPU's best vector level ([`super::simd`]; the same corners on every level).
-    /// The caller guarantees the circle stays inside the image.
-    fn scan(&mut self, img: &GrayView<'_>, x0: usize, x1: usize, y0: usize, y1: usize, t: u8) {
-        simd::dispatch(Scan {
+        // The score buffer covers [sx0 - 1, sx1 + 1) x [sy0 - 1, sy1 + 1): the frame
+        // outside the scored pixels stays 0, like a pixel that is no corner.
+        let sw = sx1 - sx0 + 2;
+        self.scores.clear();
+        self.scores.resize(sw * (sy1 - sy0 + 2), 0);
+        self.scores_w = sw;
+        simd::dispatch(Detect {
             det: self,
             img,
-            x0,
-            x1,
-            y0,
-            y1,
-            t,
+            scored: Rect {
+                x0: sx0,
+                x1: sx1,
+                y0: sy0,
+                y1: sy1,
+            },
+            inner: Rect { x0, y0, x1, y1 },
+            t: threshold,
+            nonmax,
+            out,
         });
     }
 
-    /// The body of [`Self::scan`], inlined into the dispatched function.
+    /// The body of [`Self::detect`] after clipping, inlined into the dispatched function:
+    /// scores over `scored`, then suppression and collection over `inner`.
     #[inline(always)]
-    fn scan_rows(&mut self, img: &GrayView<'_>, x0: usize, x1: usize, y0: usize, y1: usize, t: u8) {
-        let n = x1 - x0;
-        self.cand.clear();
-        self.cand.resize(n, 0);
+    fn detect_body(
+        &mut self,
+        img: &GrayView<'_>,
+        scored: Rect,
+        inner: Rect,
+        t: u8,
+        nonmax: bool,
+        out: &mut Vec<Corner>,
+    ) {
+        let Rect {
+            x0: sx0,
+            x1: sx1,
+            y0: sy0,
+            y1: sy1,
+        } = scored;
+        let Rect { x0, y0, x1, y1 } = inner;
+        let sw = self.scores_w;
+        self.score_rows(img, sx0, sx1, sy0, sy1, t);
+        // Buffer coordinates of image pixel (x, y): (x - sx0 + 1, y - sy0 + 1).
+        let (bx0, bx1) = (x0 - sx0 + 1, x1 - sx0 + 1);
+        let n = bx1 - bx0;
+        let mut kept = std::mem::take(&mut self.kept);
+        kept.clear();
+        kept.resize(n, 0);
+        for y in y0..y1 {
+            let by = y - sy0 + 1;
+            let Some(rows) = self.scores.get((by - 1) * sw..(by + 2) * sw) else {
+                continue;
+            };
+            let (up, rest) = rows.split_at(sw);
+            let (mid, dn) = rest.split_at(sw);
+            if nonmax {
+                suppress_row(up, mid, dn, bx0, &mut kept);
+            } else {
+                kept.copy_from_slice(&mid[bx0..bx1]);
+            }
+            // Non-zero bytes, a word of 8 at a time (most words are empty).
+            for (ci, chunk) in kept.chunks(8).enumerate() {
+                let mut word = match <[u8; 8]>::try_from(chunk) {
+                    Ok(b) => u64::from_le_bytes(b),
+                    Err(_) => chunk
+                        .iter()
+                        .enumerate()
+                        .fold(0u64, |w, (k, &b)| w | (u64::from(b) << (8 * k))),
+                };
+                while word != 0 {
+                    let k = (word.trailing_zeros() / 8) as usize;
+                    let score = (word >> (8 * k)) as u8;
+                    word &= !(0xFFu64 << (8 * k));
+                    out.push(Corner {
+                        x: (x0 + ci * 8 + k) as u32,
+                        y: y as u32,
+                        score,
+                    });
+                }
+            }
+        }
+        self.kept = kept;
+    }
+
+    /// The body of the scoring kernel, inlined into the dispatched function: the score of
+    /// every pixel of `[x0, x1) x [y0, y1)` where it exceeds `t` (else 0) into the score
+    /// buffer. The caller keeps the circle inside the image.
+    #[inline(always)]
+    fn score_rows(
+        &mut self,
+        img: &GrayView<'_>,
+        x0: usize,
+        x1: usize,
+        y0: usize,
+        y1: usize,
+        t: u8,
+    ) {
+        let sw = self.scores_w;
+        let (w, n) = (img.width(), x1 - x0);
         for y in y0..y1 {
             let (Some(up), Some(r1), Some(r2), Some(row), Some(r4), Some(r5), Some(dn)) = (
                 img.row(y - 3),
@@ -255,183 +290,164 @@ impl FastDetector {
             ) else {
                 continue;
             };
-            {
-                // Necessary condition on the eight opposite pairs of the circle: any arc
-                // of 9 holds one pixel of each pair (i, i + 8), so a corner has a bright
-                // (dark) pixel in every pair. Branch-free over whole rows so it vectorises
-                // (16 pixels per SSE register).
-                let c = &row[x0..x0 + n];
-                let p0 = &up[x0..x0 + n];
-                let p8 = &dn[x0..x0 + n];
-                let p4 = &row[x0 + 3..x0 + 3 + n];
-                let p12 = &row[x0 - 3..x0 - 3 + n];
-                let p2 = &r1[x0 + 2..x0 + 2 + n];
-                let p10 = &r5[x0 - 2..x0 - 2 + n];
-                let p6 = &r5[x0 + 2..x0 + 2 + n];
-                let p14 = &r1[x0 - 2..x0 - 2 + n];
-                let p1 = &up[x0 + 1..x0 + 1 + n];
-                let p9 = &dn[x0 - 1..x0 - 1 + n];
-                let p3 = &r2[x0 + 3..x0 + 3 + n];
-                let p11 = &r4[x0 - 3..x0 - 3 + n];
-                let p5 = &r4[x0 + 3..x0 + 3 + n];
-                let p13 = &r2[x0 - 3..x0 - 3 + n];
-                let p7 = &dn[x0 + 1..x0 + 1 + n];
-                let p15 = &up[x0 - 1..x0 - 1 + n];
-                let cand = &mut self.cand[..n];
-                for i in 0..n {
-                    let hi = c[i].saturating_add(t);
-                    let lo = c[i].saturating_sub(t);
-                    let b = |v: u8| u8::from(v > hi);
-                    let d = |v: u8| u8::from(v < lo);
-                    let bright = (b(p0[i]) | b(p8[i]))
-                        & (b(p4[i]) | b(p12[i]))
-                        & (b(p2[i]) | b(p10[i]))
-                        & (b(p6[i]) | b(p14[i]))
-                        & (b(p1[i]) | b(p9[i]))
-                        & (b(p3[i]) | b(p11[i]))
-                        & (b(p5[i]) | b(p13[i]))
-                        & (b(p7[i]) | b(p15[i]));
-                    let dark = (d(p0[i]) | d(p8[i]))
-                        & (d(p4[i]) | d(p12[i]))
-                        & (d(p2[i]) | d(p10[i]))
-                        & (d(p6[i]) | d(p14[i]))
-                        & (d(p1[i]) | d(p9[i]))
-                        & (d(p3[i]) | d(p11[i]))
-                        & (d(p5[i]) | d(p13[i]))
-                        & (d(p7[i]) | d(p15[i]));
-                    cand[i] = bright | dark;
-                }
-            }
             let rows = [up, r1, r2, row, r4, r5, dn];
-            // Blocks of 16 columns holding a candidate get the full segment test for all
-            // 16 at once (lane-wise, vectorised); only corners reach the scalar scoring.
-            let full = n / 16 * 16;
-            for bx in (0..full).step_by(16) {
-                let Some(block) = self.cand.get(bx..bx + 16) else {
-                    continue;
-                };
-                if block.iter().all(|&c| c == 0) {
-                    continue;
-                }
-                let x = x0 + bx;
-                let Some(mask) = block_corners(&rows, x, t) else {
-                    continue;
-                };
-                let mut m = mask;
-                while m != 0 {
-                    let k = m.trailing_zeros() as usize;
-                    m &= m - 1;
-                    let Some((cv, vals)) = circle(&rows, x + k) else {
-                        continue;
-                    };
-                    let d: [i16; 16] = std::array::from_fn(|j| i16::from(vals[j]) - i16::from(cv));
-                    self.raw.push(Corner {
-                        x: (x + k) as u32,
-                        y: y as u32,
-                        score: arc_score(&d),
-                    });
-                }
-            }
-            // The remaining columns, candidate by candidate; whole zero words are skipped.
-            for (ci, chunk) in self.cand[full..n].chunks(8).enumerate() {
-                let mut word = match <[u8; 8]>::try_from(chunk) {
-                    Ok(b) => u64::from_le_bytes(b),
-                    Err(_) => chunk
-                        .iter()
-                        .enumerate()
-                        .fold(0u64, |w, (k, &b)| w | (u64::from(b) << (8 * k))),
-                };
-                while word != 0 {
-                    let k = (word.trailing_zeros() / 8) as usize;
-                    word &= !(0xFFu64 << (8 * k));
-                    let x = x0 + full + ci * 8 + k;
-                    let Some((cv, vals)) = circle(&rows, x) else {
-                        continue;
-                    };
-                    let hi = cv.saturating_add(t);
-                    let lo = cv.saturating_sub(t);
-                    let bmask = pack16(&vals.map(|v| u8::from(v > hi)));
-                    let dmask = pack16(&vals.map(|v| u8::from(v < lo)));
-                    if has_arc9(bmask) || has_arc9(dmask) {
-                        let d: [i16; 16] =
-                            std::array::from_fn(|k| i16::from(vals[k]) - i16::from(cv));
-                        self.raw.push(Corner {
-                            x: x as u32,
-                            y: y as u32,
-                            score: arc_score(&d),
-                        });
+            let start = (y - y0 + 1) * sw + 1;
+            let Some(out) = self.scores.get_mut(start..start + n) else {
+                continue;
+            };
+            if w >= LANES + 2 * FAST_RADIUS {
+                // Whole vectors, each starting at most at x1 - LANES (and at least at the
+                // circle's margin), so a short or ragged span is covered by shifting the
+                // vector rather than by a scalar tail; recomputed pixels get equal scores.
+                let mut x = x0;
+                while x < x1 {
+                    let xs = x.min(x1.saturating_sub(LANES)).max(FAST_RADIUS);
+                    if !block_may_have_corner(&rows, xs, t) {
+                        let (lo, hi) = (xs.max(x0), (xs + LANES).min(x1));
+                        if let Some(dst) = out.get_mut(lo - x0..hi - x0) {
+                            dst.fill(0);
+                        }
+                    } else if let Some(scores) = block_scores(&rows, xs) {
+                        let (lo, hi) = (xs.max(x0), (xs + LANES).min(x1));
+                        if let Some(dst) = out.get_mut(lo - x0..hi - x0) {
+                            for (d, &s) in dst.iter_mut().zip(&scores[lo - xs..hi - xs]) {
+                                *d = if s > t { s } else { 0 };
+                            }
+                        }
                     }
+                    x = xs + LANES;
+                }
+            } else {
+                for (k, d) in out.iter_mut().enumerate() {
+                    let Some((cv, vals)) = circle(&rows, x0 + k) else {
+                        continue;
+                    };
+                    let diff: [i16; 16] =
+                        std::array::from_fn(|j| i16::from(vals[j]) - i16::from(cv));
+                    let s = arc_score(&diff);
+                    *d = if s > t { s } else { 0 };
                 }
             }
         }
     }
 }
 
-/// The FAST-9 segment test at threshold `t` for the 16 columns `x .. x + 16` of the
-/// middle row of `rows` (`y - 3 ..= y + 3`): bit `k` of the result is set when column `x + k`
-/// is a corner. All 16 columns are tested together on byte arrays (16 lanes), so the
-/// comparisons and the arc search (windowed ANDs of width 2, 4, 8, then 9 over the circle)
-/// vectorise. `None` when the circle leaves the rows.
+/// Non-maximum suppression of one score row: `kept[i]` = `mid[b]` (`b = b0 + i`) when that
+/// score is non-zero and beats its 8 neighbours in `up`, `mid`, `dn` (earlier ones in raster
+/// order strictly, later ones or equal), else 0. Branch-free so it vectorises; the rows
+/// carry a zero frame, so `b - 1` and `b + 1` are always inside.
 #[inline(always)]
-fn block_corners(rows: &[&[u8]; 7], x: usize, t: u8) -> Option<u32> {
-    let lane = |r: usize, dx: i32| -> Option<[u8; 16]> {
+fn suppress_row(up: &[u8], mid: &[u8], dn: &[u8], b0: usize, kept: &mut [u8]) {
+    let n = kept.len();
+    let (Some(u), Some(m), Some(d)) = (
+        up.get(b0 - 1..b0 + n + 1),
+        mid.get(b0 - 1..b0 + n + 1),
+        dn.get(b0 - 1..b0 + n + 1),
+    ) else {
+        return;
+    };
+    for i in 0..n {
+        let s = m[i + 1];
+        let keep = (s > u[i])
+            & (s > u[i + 1])
+            & (s > u[i + 2])
+            & (s > m[i])
+            & (s >= m[i + 2])
+            & (s >= d[i])
+            & (s >= d[i + 1])
+            & (s >= d[i + 2]);
+        kept[i] = if keep { s } else { 0 };
+    }
+}
+
+/// A necessary condition for a corner at `t` among the [`LANES`] columns from `x`: an arc of
+/// 9 holds two circle-adjacent compass pixels (0 and 4, 4 and 8, 8 and 12, or 12 and 0),
+/// both brighter (darker) than the centre by more than `t`. A quarter of the work of
+/// [`block_scores`], and false on most blocks of smooth image at any threshold.
+#[inline(always)]
+fn block_may_have_corner(rows: &[&[u8]; 7], x: usize, t: u8) -> bool {
+    let lane = |r: usize, dx: isize| -> Option<&[u8; LANES]> {
+        let start = (x as isize + dx) as usize;
+        rows.get(r)?.get(start..start + LANES)?.try_into().ok()
+    };
+    let (Some(c), Some(p0), Some(p4), Some(p8), Some(p12)) =
+        (lane(3, 0), lane(0, 0), lane(3, 3), lane(6, 0), lane(3, -3))
+    else {
+        // Let the full test decide (it refuses the same windows).
+        return true;
+    };
+    let mut any = 0u8;
+    for i in 0..LANES {
+        let b = |v: u8| v.saturating_sub(c[i]);
+        let d = |v: u8| c[i].saturating_sub(v);
+        let (b0, b4, b8, b12) = (b(p0[i]), b(p4[i]), b(p8[i]), b(p12[i]));
+        let (d0, d4, d8, d12) = (d(p0[i]), d(p4[i]), d(p8[i]), d(p12[i]));
+        let m = b0
+            .min(b4)
+            .max(b4.min(b8))
+            .max(b8.min(b12))
+            .max(b12.min(b0))
+            .max(d0.min(d4).max(d4.min(d8)).max(d8.min(d12)).max(d12.min(d0)));
+        any |= u8::from(m > t);
+    }
+    any != 0
+}
+
+/// The FAST score ([`arc_score`]) of the [`LANES`] columns `x .. x + LANES` of the middle
+/// row of `rows` (`y - 3 ..= y + 3`), all lanes at once on byte arrays so it vectorises:
+/// the bright margins `m_k = (I_k - I_p)^+` and dark margins `(I_p - I_k)^+` (saturating),
+/// their minima over the 16 circular windows of 9 built by doubling (2, 4, 8, then 9
+/// wide), and the maximum over windows and both polarities. A pixel is a corner at `t`
+/// exactly when its score is `> t`. `None` when the circle leaves the rows.
+#[inline(always)]
+fn block_scores(rows: &[&[u8]; 7], x: usize) -> Option<[u8; LANES]> {
+    let lane = |r: usize, dx: i32| -> Option<[u8; LANES]> {
         let start = (x as isize + dx as isize) as usize;
-        rows.get(r)?.get(start..start + 16)?.try_into().ok()
+        rows.get(r)?.get(start..start + LANES)?.try_into().ok()
     };
     let c = lane(3, 0)?;
-    let mut vals = [[0u8; 16]; 16];
-    for (v, &(dx, dy)) in vals.iter_mut().zip(CIRCLE.iter()) {
-        *v = lane((dy + 3) as usize, dx)?;
-    }
-    let mut bright = [[0u8; 16]; 16];
-    let mut dark = [[0u8; 16]; 16];
-    for k in 0..16 {
-        for i in 0..16 {
-            let (v, p) = (vals[k][i], c[i]);
-            bright[k][i] = u8::from(v > p.saturating_add(t));
-            dark[k][i] = u8::from(v < p.saturating_sub(t));
+    let mut bright = [[0u8; LANES]; 16];
+    let mut dark = [[0u8; LANES]; 16];
+    for (k, &(dx, dy)) in CIRCLE.iter().enumerate() {
+        let v = lane((dy + 3) as usize, dx)?;
+        for i in 0..LANES {
+            bright[k][i] = v[i].saturating_sub(c[i]);
+            dark[k][i] = c[i].saturating_sub(v[i]);
         }
     }
-    let (b, d) = (arcs9(&bright), arcs9(&dark));
-    let mut mask = 0u32;
-    for i in 0..16 {
-        mask |= u32::from(b[i] | d[i]) << i;
+    let b = arc_min9_max(&bright);
+    let d = arc_min9_max(&dark);
+    let mut best = [0u8; LANES];
+    for i in 0..LANES {
+        best[i] = b[i].max(d[i]);
     }
-    Some(mask)
+    Some(best)
 }
 
-/// Lane-wise: 1 where the 16 circle flags `m[k][lane]` hold 9 contiguous ones.
+/// Lane-wise `max_k min_{j < 9} m[(k + j) mod 16]`: the best window of 9 contiguous circle
+/// margins.
 #[inline(always)]
-fn arcs9(m: &[[u8; 16]; 16]) -> [u8; 16] {
-    let mut r2 = [[0u8; 16]; 16];
+fn arc_min9_max(m: &[[u8; LANES]; 16]) -> [u8; LANES] {
+    let mut m2 = [[0u8; LANES]; 16];
     for k in 0..16 {
-        for i in 0..16 {
-            r2[k][i] = m[k][i] & m[(k + 1) & 15][i];
+        for i in 0..LANES {
+            m2[k][i] = m[k][i].min(m[(k + 1) & 15][i]);
         }
     }
-    let mut r4 = [[0u8; 16]; 16];
+    let mut m4 = [[0u8; LANES]; 16];
     for k in 0..16 {
-        for i in 0..16 {
-            r4[k][i] = r2[k][i] & r2[(k + 2) & 15][i];
+        for i in 0..LANES {
+            m4[k][i] = m2[k][i].min(m2[(k + 2) & 15][i]);
         }
     }
-    let mut any = [0u8; 16];
+    let mut best = [0u8; LANES];
     for k in 0..16 {
-        for i in 0..16 {
-            any[i] |= r4[k][i] & r4[(k + 4) & 15][i] & m[(k + 8) & 15][i];
+        for i in 0..LANES {
+            let m9 = m4[k][i].min(m4[(k + 4) & 15][i]).min(m[(k + 8) & 15][i]);
+            best[i] = best[i].max(m9);
         }
     }
-    any
-}
-
-/// Packs 16 bytes of 0/1 into a 16-bit mask (byte `k` -> bit `k`): per 8 bytes,
-/// `(x * 0x0102040810204080) >> 56` sums `b_i 2^i` into the top byte without carries.
-#[inline(always)]
-fn pack16(b: &[u8; 16]) -> u32 {
-    const MAGIC: u64 = 0x0102_0408_1020_4080;
-    let lo = u64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]]);
-    let hi = u64::from_le_bytes([b[8], b[9], b[10], b[11], b[12], b[13], b[14], b[15]]);
-    ((lo.wrapping_mul(MAGIC) >> 56) | ((hi.wrapping_mul(MAGIC) >> 56) << 8)) as u32
+    best
 }
 
 /// The centre value and the 16 circle values of column `x`, from the seven rows
@@ -460,15 +476,10 @@ fn circle(rows: &[&[u8]; 7], x: usize) -> Option<(u8, [u8; 16])> {
 mod tests {
     use super::*;
 
-    #[test]
-    fn pack16_maps_bytes_to_bits() {
-        let mut b = [0u8; 16];
-        assert_eq!(pack16(&b), 0);
-        b[0] = 1;
-        b[9] = 1;
-        b[15] = 1;
-        assert_eq!(pack16(&b), 1 | (1 << 9) | (1 << 15));
-        assert_eq!(pack16(&[1; 16]), 0xFFFF);
+    /// True when the circular 16-bit mask has 9 contiguous set bits: the definition of the
+    /// segment test, bit by bit, as the reference for the vector code.
+    fn has_arc9(mask: u32) -> bool {
+        (0..16).any(|k| (0..9).all(|j| mask >> ((k + j) % 16) & 1 == 1))
     }
 
     #[test]
@@ -480,18 +491,22 @@ mod tests {
         assert!(!has_arc9(0b0111_0000_0001_1111));
     }
 
-    /// The scalar segment test of one column, for comparison with [`block_corners`].
+    /// The scalar segment test of one column (Rosten & Drummond's definition).
     fn scalar_corner(rows: &[&[u8]; 7], x: usize, t: u8) -> bool {
         let Some((cv, vals)) = circle(rows, x) else {
             return false;
         };
         let (hi, lo) = (cv.saturating_add(t), cv.saturating_sub(t));
-        has_arc9(pack16(&vals.map(|v| u8::from(v > hi))))
-            || has_arc9(pack16(&vals.map(|v| u8::from(v < lo))))
+        let mask = |f: &dyn Fn(u8) -> bool| {
+            vals.iter()
+                .enumerate()
+                .fold(0u32, |m, (k, &v)| m | (u32::from(f(v)) << k))
+        };
+        has_arc9(mask(&|v| v > hi)) || has_arc9(mask(&|v| v < lo))
     }
 
     #[test]
-    fn block_test_equals_scalar_test() {
+    fn block_scores_equal_scalar_scores_and_segment_test() {
         // Random rows with runs of extreme values (saturation at 0 and 255) and of a
         // constant, so both corners and near-corners occur.
         let mut state = 0x9E37_79B9_7F4A_7C15u64;
@@ -502,11 +517,11 @@ mod tests {
             state
         };
         let (mut corners, mut tested) = (0, 0);
-        for _ in 0..3000 {
+        for _ in 0..1000 {
             let data: Vec<Vec<u8>> = (0..7)
                 .map(|_| {
                     let base = (next() % 256) as u8;
-                    (0..22)
+                    (0..LANES + 6)
                         .map(|_| match next() % 4 {
                             0 => 0,
                             1 => 255,
@@ -517,13 +532,18 @@ mod tests {
                 })
                 .collect();
             let rows: [&[u8]; 7] = std::array::from_fn(|k| data[k].as_slice());
-            for t in [1u8, 7, 20, 60] {
-                let Some(mask) = block_corners(&rows, 3, t) else {
-                    panic!("block inside the rows was rejected");
+            let Some(scores) = block_scores(&rows, 3) else {
+                panic!("block inside the rows was rejected");
+            };
+            for (k, &score) in scores.iter().enumerate() {
+                let Some((cv, vals)) = circle(&rows, 3 + k) else {
+                    panic!("column {k} inside the rows was rejected");
                 };
-                for k in 0..16 {
+                let d: [i16; 16] = std::array::from_fn(|j| i16::from(vals[j]) - i16::from(cv));
+                assert_eq!(score, arc_score(&d), "column {k}");
+                for t in [1u8, 7, 20, 60] {
                     let want = scalar_corner(&rows, 3 + k, t);
-                    assert_eq!(mask >> k & 1 == 1, want, "column {k}, t = {t}");
+                    assert_eq!(score > t, want, "column {k}, t = {t}");
                     corners += usize::from(want);
                     tested += 1;
                 }
@@ -534,9 +554,9 @@ mod tests {
             "too few corners ({corners}) to test anything"
         );
         // Out of the rows: no answer rather than a wrong one.
-        let short = [[0u8; 10]; 7];
+        let short = [[0u8; LANES]; 7];
         let rows: [&[u8]; 7] = std::array::from_fn(|k| short[k].as_slice());
-        assert_eq!(block_corners(&rows, 3, 7), None);
+        assert_eq!(block_scores(&rows, 3), None);
     }
 
     #[test]

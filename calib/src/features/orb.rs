@@ -7,6 +7,9 @@
 //!    [`OrbParams::edge_threshold`] pixels from the border, with non-maximum suppression;
 //!    every `cell_size` cell (30 px) left empty is searched again at
 //!    [`OrbParams::min_fast_threshold`] (ORB-SLAM's 20 -> 7 fallback, for low-texture areas).
+//!    Both come from one scan at the lower threshold: a FAST score does not depend on the
+//!    threshold, so the corners at 20 are those scoring above 20 (see
+//!    [`FastDetector::detect`]); the result is the same as two scans, in the same order.
 //! 2. Ranking by the Harris measure `R = det(M) - k tr(M)^2` (k = 0.04) of the 7x7 Sobel
 //!    structure tensor `M` (Harris & Stephens 1988; ORB section 3.1), scaled as OpenCV does
 //!    by `(4 * 7 * 255)^-4`. As in OpenCV, FAST is first thinned by its own score to twice the
@@ -32,6 +35,7 @@ use super::brief_pattern::BRIEF_PATTERN;
 use super::fast::{Corner, FastDetector, Rect};
 use super::gray::{BlurScratch, GrayBuf, GrayView, ResizeScratch, gaussian_blur7, resize_bilinear};
 use super::quadtree::Quadtree;
+use super::simd;
 use super::{Descriptor, FeatureError, Features, Keypoint};
 
 /// Harris constant `k` of `det(M) - k tr(M)^2`.
@@ -137,7 +141,11 @@ pub struct OrbExtractor {
     fast: FastDetector,
     quad: Quadtree,
     corners: Vec<Corner>,
+    low: Vec<Corner>,
     cell_count: Vec<u32>,
+    cell_start: Vec<usize>,
+    cell_fill: Vec<usize>,
+    by_cell: Vec<u32>,
     xy: Vec<[f32; 2]>,
     resp: Vec<f32>,
     sub_xy: Vec<[f32; 2]>,
@@ -175,7 +183,11 @@ impl OrbExtractor {
             fast: FastDetector::new(),
             quad: Quadtree::new(),
             corners: Vec::new(),
+            low: Vec::new(),
             cell_count: Vec::new(),
+            cell_start: Vec::new(),
+            cell_fill: Vec::new(),
+            by_cell: Vec::new(),
             xy: Vec::new(),
             resp: Vec::new(),
             sub_xy: Vec::new(),
@@ -282,35 +294,58 @@ impl OrbExtractor {
             x1: w - edge,
             y1: h - edge,
         };
-        // 1. FAST with the per-cell fallback.
-        self.corners.clear();
+        // 1. FAST with the per-cell fallback, from one scan at the lower threshold: scores
+        //    do not depend on the threshold, so the corners at `fast_threshold` are those
+        //    with a higher score, suppression included ([`FastDetector::detect`]). The
+        //    order is that of a scan at `fast_threshold` followed by one per empty cell.
+        self.low.clear();
         self.fast
-            .detect(&view, region, p.fast_threshold, true, &mut self.corners);
+            .detect(&view, region, p.min_fast_threshold, true, &mut self.low);
+        self.corners.clear();
+        self.corners
+            .extend(self.low.iter().filter(|c| c.score > p.fast_threshold));
         let (rw, rh) = (region.x1 - region.x0, region.y1 - region.y0);
         let ncols = (rw / p.cell_size).max(1);
         let nrows = (rh / p.cell_size).max(1);
         let cw = rw.div_ceil(ncols);
         let ch = rh.div_ceil(nrows);
+        let cell_of = |c: &Corner| {
+            let cx = ((c.x as usize - region.x0) / cw).min(ncols - 1);
+            let cy = ((c.y as usize - region.y0) / ch).min(nrows - 1);
+            cy * ncols + cx
+        };
         self.cell_count.clear();
         self.cell_count.resize(ncols * nrows, 0);
         for c in &self.corners {
-            let cx = ((c.x as usize - region.x0) / cw).min(ncols - 1);
-            let cy = ((c.y as usize - region.y0) / ch).min(nrows - 1);
-            self.cell_count[cy * ncols + cx] += 1;
+            self.cell_count[cell_of(c)] += 1;
         }
-        for cy in 0..nrows {
-            for cx in 0..ncols {
-                if self.cell_count[cy * ncols + cx] > 0 {
-                    continue;
+        if self.cell_count.contains(&0) {
+            // Low-threshold corners bucketed by cell (counting sort keeps raster order).
+            self.cell_start.clear();
+            self.cell_start.resize(ncols * nrows + 1, 0);
+            for c in &self.low {
+                self.cell_start[cell_of(c) + 1] += 1;
+            }
+            for i in 0..ncols * nrows {
+                self.cell_start[i + 1] += self.cell_start[i];
+            }
+            self.by_cell.clear();
+            self.by_cell.resize(self.low.len(), 0);
+            let mut fill = std::mem::take(&mut self.cell_fill);
+            fill.clear();
+            fill.extend_from_slice(&self.cell_start[..ncols * nrows]);
+            for (i, c) in self.low.iter().enumerate() {
+                let k = cell_of(c);
+                self.by_cell[fill[k]] = i as u32;
+                fill[k] += 1;
+            }
+            self.cell_fill = fill;
+            for cell in 0..ncols * nrows {
+                if self.cell_count[cell] == 0 {
+                    let (lo, hi) = (self.cell_start[cell], self.cell_start[cell + 1]);
+                    self.corners
+                        .extend(self.by_cell[lo..hi].iter().map(|&i| self.low[i as usize]));
                 }
-                let cell = Rect {
-                    x0: region.x0 + cx * cw,
-                    y0: region.y0 + cy * ch,
-                    x1: (region.x0 + (cx + 1) * cw).min(region.x1),
-                    y1: (region.y0 + (cy + 1) * ch).min(region.y1),
-                };
-                self.fast
-                    .detect(&view, cell, p.min_fast_threshold, true, &mut self.corners);
             }
         }
         if self.corners.is_empty() || quota == 0 {
@@ -351,22 +386,62 @@ impl OrbExtractor {
         // 4-5. Orientation and descriptor.
         self.blurred.reshape(w, h);
         gaussian_blur7(&view, &mut self.blurred, &mut self.blur_scratch);
-        let blurred = self.blurred.view();
-        let scale = self.scales[l];
-        for &j in &self.chosen2 {
-            let [x, y] = sub_xy[j as usize];
+        simd::dispatch(DescribeAll {
+            img: &view,
+            blurred: &self.blurred.view(),
+            umax: &self.umax,
+            pattern: &self.pattern,
+            chosen: &self.chosen2,
+            xy: sub_xy,
+            response: sub_resp,
+            level: l as u8,
+            scale: self.scales[l],
+            size: p.patch_size as f32 * self.scales[l],
+            kps,
+            descs,
+        });
+    }
+}
+
+/// Steps 4-5 for the chosen keypoints of one level, as a [`simd::Kernel`] (the rotated
+/// test offsets of [`describe`] vectorise).
+struct DescribeAll<'a, 'b> {
+    img: &'a GrayView<'b>,
+    blurred: &'a GrayView<'b>,
+    umax: &'a [i32],
+    pattern: &'a SoaPattern,
+    chosen: &'a [u32],
+    xy: &'a [[f32; 2]],
+    response: &'a [f32],
+    level: u8,
+    scale: f32,
+    size: f32,
+    kps: &'a mut Vec<Keypoint>,
+    descs: &'a mut Vec<Descriptor>,
+}
+
+impl simd::Kernel for DescribeAll<'_, '_> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        for &j in self.chosen {
+            let (Some(&[x, y]), Some(&response)) =
+                (self.xy.get(j as usize), self.response.get(j as usize))
+            else {
+                continue;
+            };
             let (xi, yi) = (x as usize, y as usize);
-            let angle = ic_angle(&view, xi, yi, &self.umax);
-            let d = describe(&blurred, xi, yi, angle, &self.pattern);
-            kps.push(Keypoint {
-                x: x * scale,
-                y: y * scale,
-                level: l as u8,
+            let angle = ic_angle(self.img, xi, yi, self.umax);
+            self.descs
+                .push(describe(self.blurred, xi, yi, angle, self.pattern));
+            self.kps.push(Keypoint {
+                x: x * self.scale,
+                y: y * self.scale,
+                level: self.level,
                 angle_rad: angle,
-                response: sub_resp[j as usize],
-                size: p.patch_size as f32 * scale,
+                response,
+                size: self.size,
             });
-            descs.push(d);
         }
     }
 }
@@ -484,6 +559,16 @@ pub fn ic_angle(img: &GrayView<'_>, x: usize, y: usize, umax: &[i32]) -> f32 {
     (m01 as f64).atan2(m10 as f64) as f32
 }
 
+/// `x.round() as i32` (half away from zero) for `|x| < 2^22`, in operations that vectorise
+/// on every x86-64 level (`f32::round` is a library call without SSE4.1): the fraction
+/// `x - trunc(x)` is exact, and rounds away from zero when it reaches one half.
+#[inline(always)]
+fn round_half_away(x: f32) -> i32 {
+    let t = x as i32;
+    let frac = x - t as f32;
+    t + i32::from(frac >= 0.5) - i32::from(frac <= -0.5)
+}
+
 /// The test pattern as four coordinate arrays (`x1`, `y1`, `x2`, `y2`), the layout
 /// [`describe`] rotates with vector instructions.
 pub type SoaPattern = [[f32; 256]; 4];
@@ -519,8 +604,8 @@ pub fn describe(
     let mut off2 = [0i32; 256];
     for i in 0..256 {
         let (x1, y1, x2, y2) = (pattern[0][i], pattern[1][i], pattern[2][i], pattern[3][i]);
-        off1[i] = (x1 * c - y1 * s).round() as i32 + (x1 * s + y1 * c).round() as i32 * stride;
-        off2[i] = (x2 * c - y2 * s).round() as i32 + (x2 * s + y2 * c).round() as i32 * stride;
+        off1[i] = round_half_away(x1 * c - y1 * s) + round_half_away(x1 * s + y1 * c) * stride;
+        off2[i] = round_half_away(x2 * c - y2 * s) + round_half_away(x2 * s + y2 * c) * stride;
     }
     let at = |o: i32| {
         data.get((centre + o as isize) as usize)
@@ -571,6 +656,23 @@ mod tests {
                 panic!("ORB failed at {level:?}");
             };
             assert_eq!(f, base, "{level:?}");
+        }
+    }
+
+    #[test]
+    fn round_half_away_equals_f32_round() {
+        // Ties, values next to ties, negatives and the rotated-pattern range.
+        let mut xs = vec![0.5f32, -0.5, 1.5, -1.5, 2.5, -2.5, 0.0, -0.0, 13.0, -13.0];
+        for k in -40..=40 {
+            let tie = k as f32 + 0.5;
+            xs.extend([tie, tie.next_up(), tie.next_down()]);
+        }
+        for i in 0..20_000 {
+            let a = i as f32 * 0.001_37;
+            xs.extend([13.0 * a.sin() - 7.0 * a.cos(), -(a % 19.0)]);
+        }
+        for x in xs {
+            assert_eq!(round_half_away(x), x.round() as i32, "{x}");
         }
     }
 
