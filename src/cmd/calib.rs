@@ -75,6 +75,24 @@ pub struct BoardArgs {
     pub json: bool,
 }
 
+/// `--distribution` of `rodlog calib match` ([`calib::features::KeypointDistribution`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Distribution {
+    /// ORB-SLAM's quadtree (the paper's front end).
+    Quadtree,
+    /// The strongest corners, as OpenCV's ORB.
+    RetainBest,
+}
+
+impl From<Distribution> for calib::features::KeypointDistribution {
+    fn from(d: Distribution) -> Self {
+        match d {
+            Distribution::Quadtree => Self::Quadtree,
+            Distribution::RetainBest => Self::RetainBest,
+        }
+    }
+}
+
 /// Arguments of `rodlog calib match`.
 #[derive(Debug, Args)]
 pub struct MatchArgs {
@@ -90,6 +108,11 @@ pub struct MatchArgs {
     /// Features per image (ORB's target; SIFT keeps at most this many strongest).
     #[arg(long, default_value_t = 2000)]
     pub features: usize,
+    /// How ORB keeps its features on each pyramid level: quadtree (the paper's, even
+    /// coverage of the textured image) or retain-best (OpenCV's: the strongest corners,
+    /// denser, so GMS finds more support but coverage is patchier).
+    #[arg(long, value_enum, default_value_t = Distribution::Quadtree)]
+    pub distribution: Distribution,
     /// Print the match JSON (DESIGN.md section 4) on stdout.
     #[arg(long)]
     pub json: bool,
@@ -367,6 +390,7 @@ fn match_images(args: &MatchArgs) -> Result<()> {
         method: args.method.parse()?,
         n_features: args.features,
         picture: args.picture.clone(),
+        distribution: args.distribution.into(),
         ..MatchCommand::new(&args.image_a, &args.image_b)
     };
     let result = run_match_command(&command)?;

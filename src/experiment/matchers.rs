@@ -37,6 +37,11 @@
 //! method that errors or accepts no match is counted as a refusal for that pair (shown in
 //! the tables; its rate is then undefined, its counts are 0).
 //!
+//! The **orb-gms-retain-best** row is orb-gms with OpenCV's keypoint selection (the
+//! strongest corners per level, `calib::features::KeypointDistribution::RetainBest`)
+//! instead of the quadtree: beside the OpenCV row it separates what the selection does
+//! from what the rest of the pipeline (FAST, descriptor, matching, GMS) does.
+//!
 //! The optional **opencv-orb-gms** column runs OpenCV's ORB (2000 features) + BFMatcher
 //! (Hamming, nearest neighbour) + `cv2.xfeatures2d.matchGMS` through
 //! `scripts/features/opencv_ref.py` on the same pairs (written as PNGs) when the venv of
@@ -51,7 +56,8 @@ use anyhow::{Context, Result, bail};
 use calib::board::pnp::homography_dlt;
 use calib::board::{BoardOptions, BoardSpec, board_view};
 use calib::features::{
-    FeatureError, GrayView, Keypoint, Match, MatchImagesParams, MatchMethod, match_images,
+    FeatureError, GrayView, Keypoint, KeypointDistribution, Match, MatchImagesParams, MatchMethod,
+    match_images,
 };
 use calib::relpose::CameraModel;
 use image::GrayImage;
@@ -98,6 +104,8 @@ const CANDIDATE_METHODS: [&str; 6] = [
     "sift-bf",
     "akaze-ransac",
 ];
+/// Name of the orb-gms row with OpenCV's keypoint selection ([`KeypointDistribution`]).
+pub const RETAIN_BEST_METHOD: &str = "orb-gms-retain-best";
 /// Name of the OpenCV reference column.
 pub const OPENCV_METHOD: &str = "opencv-orb-gms";
 
@@ -688,6 +696,35 @@ impl MethodOutput {
     }
 }
 
+/// A row of the tables: a method with its parameters.
+struct Variant {
+    name: String,
+    method: MatchMethod,
+    params: MatchImagesParams,
+}
+
+/// Every available method with its defaults, then [`RETAIN_BEST_METHOD`]: orb-gms with
+/// OpenCV's keypoint selection instead of the quadtree, to separate the effect of the
+/// selection from that of the rest of the pipeline in the comparison with OpenCV.
+fn variants() -> Vec<Variant> {
+    let mut v: Vec<Variant> = available_methods()
+        .into_iter()
+        .map(|m| Variant {
+            name: m.name().to_owned(),
+            method: m,
+            params: MatchImagesParams::for_method(m),
+        })
+        .collect();
+    let mut params = MatchImagesParams::for_method(MatchMethod::OrbGms);
+    params.orb.distribution = KeypointDistribution::RetainBest;
+    v.push(Variant {
+        name: RETAIN_BEST_METHOD.to_owned(),
+        method: MatchMethod::OrbGms,
+        params,
+    });
+    v
+}
+
 /// The methods of this build (module docs).
 pub fn available_methods() -> Vec<MatchMethod> {
     CANDIDATE_METHODS
@@ -701,11 +738,10 @@ pub fn available_methods() -> Vec<MatchMethod> {
         })
 }
 
-fn run_method(pair: &ImagePair, method: MatchMethod) -> Result<MethodOutput, FeatureError> {
+fn run_method(pair: &ImagePair, variant: &Variant) -> Result<MethodOutput, FeatureError> {
     let a = GrayView::from_image(&pair.a);
     let b = GrayView::from_image(&pair.b);
-    let params = MatchImagesParams::for_method(method);
-    let r = match_images(&a, &b, method, &params)?;
+    let r = match_images(&a, &b, variant.method, &variant.params)?;
     let accepted: Vec<Match> = r.inlier_matches().copied().collect();
     let t = r.timings;
     Ok(MethodOutput {
@@ -976,8 +1012,8 @@ fn summarise(set: PairSet, method: &str, scores: &[&PairScore]) -> CellSummary {
 /// Rendering, file and plotting errors (a method's refusal on a pair is not an error).
 pub fn run(settings: &Settings) -> Result<()> {
     let n = settings.trials_or(DEFAULT_TRIALS);
-    let methods = available_methods();
-    let mut method_names: Vec<String> = methods.iter().map(|m| m.name().to_owned()).collect();
+    let methods = variants();
+    let mut method_names: Vec<String> = methods.iter().map(|v| v.name.clone()).collect();
     let reference = if settings.reference {
         super::reference_python().zip(super::source_script("scripts/features/opencv_ref.py"))
     } else {
@@ -1045,10 +1081,10 @@ pub fn run(settings: &Settings) -> Result<()> {
         let set = pair.set.name();
         let mut outputs: Vec<(String, Result<MethodOutput>)> = methods
             .iter()
-            .map(|&m| {
+            .map(|v| {
                 (
-                    m.name().to_owned(),
-                    run_method(pair, m).map_err(anyhow::Error::from),
+                    v.name.clone(),
+                    run_method(pair, v).map_err(anyhow::Error::from),
                 )
             })
             .collect();

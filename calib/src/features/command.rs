@@ -1,4 +1,4 @@
-//! Everything `rodlog calib match A B [--method ..] [--features N] [--json] [-o pic.png]`
+//! Everything `rodlog calib match A B [--method ..] [--features N] [--distribution ..] [--json] [-o pic.png]`
 //! does (DESIGN.md section 4), so the CLI only parses flags and prints: load two image
 //! files (any format the `image` crate decodes here: PNG, JPEG; colour is converted to gray
 //! with OpenCV's BT.601 weights), run [`match_images`], write the match picture, and render
@@ -10,7 +10,10 @@ use serde::Serialize;
 
 use super::draw::draw_matches;
 use super::gray::rgb_to_gray;
-use super::{FeatureError, GrayView, MatchImagesParams, MatchMethod, MatchResult, match_images};
+use super::{
+    FeatureError, GrayView, KeypointDistribution, MatchImagesParams, MatchMethod, MatchResult,
+    match_images,
+};
 
 /// The inputs of `rodlog calib match`.
 #[derive(Clone, Debug, PartialEq)]
@@ -25,6 +28,8 @@ pub struct MatchCommand {
     pub n_features: usize,
     /// `-o`: where to write the match picture (PNG or JPEG by extension).
     pub picture: Option<PathBuf>,
+    /// `--distribution` (default the quadtree): how ORB keeps its features per level.
+    pub distribution: KeypointDistribution,
 }
 
 impl MatchCommand {
@@ -36,6 +41,7 @@ impl MatchCommand {
             method: MatchMethod::OrbGms,
             n_features: 2000,
             picture: None,
+            distribution: KeypointDistribution::Quadtree,
         }
     }
 }
@@ -73,6 +79,7 @@ pub fn run_match_command(cmd: &MatchCommand) -> Result<MatchResult, FeatureError
     let (va, vb) = (GrayView::from_image(&a), GrayView::from_image(&b));
     let mut params = MatchImagesParams::for_method(cmd.method);
     params.orb.n_features = cmd.n_features;
+    params.orb.distribution = cmd.distribution;
     params.sift.n_features = cmd.n_features;
     let result = match_images(&va, &vb, cmd.method, &params)?;
     if let Some(out) = &cmd.picture {

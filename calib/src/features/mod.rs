@@ -42,7 +42,7 @@ use std::time::Instant;
 pub use gms::{GmsParams, gms_filter};
 pub use gray::{GrayBuf, GrayView};
 pub use matcher::{Match, MatchParams, match_brute_force};
-pub use orb::{OrbExtractor, OrbParams};
+pub use orb::{KeypointDistribution, OrbExtractor, OrbParams};
 pub use sift::{SiftFeatures, SiftKeypoint, SiftMatchParams, SiftParams};
 
 /// Errors of the feature front end.

@@ -49,6 +49,49 @@ pub const PATTERN_RADIUS: i32 = 13;
 /// orientation disc of a 31-pixel patch stay inside the image.
 pub const MIN_EDGE_THRESHOLD: usize = 19;
 
+/// How a pyramid level's corners are cut down to its quota (module docs, steps 2-3).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum KeypointDistribution {
+    /// ORB-SLAM's quadtree: the best corner of each node, so the keypoints cover every
+    /// textured part of the image evenly (the paper's front end).
+    #[default]
+    Quadtree,
+    /// The strongest corners wherever they are, as OpenCV's ORB
+    /// (`KeyPointsFilter::retainBest`): dense on strong texture, none on weak texture.
+    /// GMS scores a match by the matches around it, so dense keypoints give it more support:
+    /// more matches survive, at the cost of coverage (see `rodlog experiment matchers`).
+    RetainBest,
+}
+
+/// Indices (ascending) of at most `n` of the corners `xy` with responses `response`,
+/// chosen by `distribution`. Ties in [`KeypointDistribution::RetainBest`] go to the lower
+/// index, so the choice is deterministic.
+fn select(
+    distribution: KeypointDistribution,
+    quad: &mut Quadtree,
+    xy: &[[f32; 2]],
+    response: &[f32],
+    bounds: (f32, f32, f32, f32),
+    n: usize,
+    out: &mut Vec<u32>,
+) {
+    match distribution {
+        KeypointDistribution::Quadtree => quad.distribute(xy, response, bounds, n, out),
+        KeypointDistribution::RetainBest => {
+            out.clear();
+            let count = xy.len().min(response.len());
+            out.extend(0..count as u32);
+            out.sort_unstable_by(|&a, &b| {
+                response[b as usize]
+                    .total_cmp(&response[a as usize])
+                    .then(a.cmp(&b))
+            });
+            out.truncate(n);
+            out.sort_unstable();
+        }
+    }
+}
+
 /// ORB parameters. `Default` is the paper's front end (DESIGN.md section 6).
 #[derive(Clone, Debug, PartialEq)]
 pub struct OrbParams {
@@ -68,6 +111,8 @@ pub struct OrbParams {
     pub patch_size: usize,
     /// Side of the cells of the FAST fallback, pixels (default 30).
     pub cell_size: usize,
+    /// How each level keeps its quota (default the quadtree).
+    pub distribution: KeypointDistribution,
 }
 
 impl Default for OrbParams {
@@ -81,6 +126,7 @@ impl Default for OrbParams {
             edge_threshold: 19,
             patch_size: 31,
             cell_size: 30,
+            distribution: KeypointDistribution::Quadtree,
         }
     }
 }
@@ -365,12 +411,20 @@ impl OrbExtractor {
         self.resp
             .extend(self.corners.iter().map(|c| f32::from(c.score)));
         let keep_fast = 2 * quota;
-        if self.corners.len() > keep_fast {
-            self.quad
-                .distribute(&self.xy, &self.resp, bounds, keep_fast, &mut self.chosen);
-        } else {
+        let distribution = p.distribution;
+        if self.corners.len() <= keep_fast {
             self.chosen.clear();
             self.chosen.extend(0..self.corners.len() as u32);
+        } else {
+            select(
+                distribution,
+                &mut self.quad,
+                &self.xy,
+                &self.resp,
+                bounds,
+                keep_fast,
+                &mut self.chosen,
+            );
         }
         let (sub_xy, sub_resp) = (&mut self.sub_xy, &mut self.sub_resp);
         sub_xy.clear();
@@ -380,9 +434,16 @@ impl OrbExtractor {
             sub_xy.push([c.x as f32, c.y as f32]);
             sub_resp.push(harris_response(&view, c.x as usize, c.y as usize));
         }
-        // 3. Quadtree to the quota, best Harris per node.
-        self.quad
-            .distribute(sub_xy, sub_resp, bounds, quota, &mut self.chosen2);
+        // 3. To the quota by Harris (quadtree: best per node).
+        select(
+            distribution,
+            &mut self.quad,
+            sub_xy,
+            sub_resp,
+            bounds,
+            quota,
+            &mut self.chosen2,
+        );
         // 4-5. Orientation and descriptor.
         self.blurred.reshape(w, h);
         gaussian_blur7(&view, &mut self.blurred, &mut self.blur_scratch);
@@ -657,6 +718,44 @@ mod tests {
             };
             assert_eq!(f, base, "{level:?}");
         }
+    }
+
+    #[test]
+    fn quadtree_covers_weak_texture_retain_best_does_not() {
+        // Left half at full contrast, right half at a fifth of it (measured: the quadtree
+        // puts 24 % of its keypoints on the weak half, retain-best none).
+        let (w, h) = (640, 480);
+        let mut img = textured_image(w, h, 4);
+        for row in img.data.chunks_exact_mut(w) {
+            for v in &mut row[w / 2..] {
+                *v = (128.0 + (f32::from(*v) - 128.0) * 0.2).round() as u8;
+            }
+        }
+        let right_share = |distribution| {
+            let params = OrbParams {
+                n_features: 400,
+                distribution,
+                ..OrbParams::default()
+            };
+            let Ok(f) = crate::features::detect_and_describe(&img.view(), &params) else {
+                panic!("ORB failed on the synthetic image");
+            };
+            assert!(
+                f.keypoints.len() > 350,
+                "{distribution:?}: {}",
+                f.keypoints.len()
+            );
+            let right = f.keypoints.iter().filter(|k| k.x >= (w / 2) as f32).count();
+            right as f64 / f.keypoints.len() as f64
+        };
+        let quad = right_share(KeypointDistribution::Quadtree);
+        let best = right_share(KeypointDistribution::RetainBest);
+        eprintln!("weak-half share: quadtree {quad:.3}, retain-best {best:.3}");
+        assert!(quad > 0.15, "quadtree puts {quad:.2} on the weak half");
+        assert!(
+            best < 0.25 * quad,
+            "retain-best {best:.2} vs quadtree {quad:.2}"
+        );
     }
 
     #[test]
