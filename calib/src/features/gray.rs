@@ -105,7 +105,7 @@ impl<'a> GrayView<'a> {
     }
 }
 
-/// An owned, tightly packed 8-bit gray image (reused between frames by [`Pyramid`]).
+/// An owned, tightly packed 8-bit gray image (reused between frames by [`super::OrbExtractor`]).
 #[derive(Clone, Debug, Default)]
 pub struct GrayBuf {
     /// Pixels, row-major, `width * height` bytes.
@@ -165,8 +165,129 @@ pub fn rgb_to_gray(rgb: &image::RgbImage) -> image::GrayImage {
 #[derive(Clone, Debug, Default)]
 pub struct ResizeScratch {
     xtab: Vec<(u32, u16)>,
+    blocks: Vec<HBlock>,
     h0: Vec<u16>,
     h1: Vec<u16>,
+}
+
+/// Destination pixels per vector block of the horizontal pass.
+const HBLOCK: usize = 64;
+
+/// The horizontal pass of [`HBLOCK`] destination pixels `x0 .. x0 + 64` as a byte shuffle:
+/// source bytes `base + idx[k]` and `base + idx[k] + 1` with weight `w[k]` of the second.
+/// Usable when the 128 source bytes from `base` are in the row (`idx[k] + 1 < 128`).
+#[derive(Clone, Copy, Debug)]
+struct HBlock {
+    base: usize,
+    idx: [u8; HBLOCK],
+    w: [u8; HBLOCK],
+    usable: bool,
+}
+
+/// The blocks of a destination row of `xtab.len()` pixels from a source row of `sw`.
+fn hblocks(xtab: &[(u32, u16)], sw: usize, out: &mut Vec<HBlock>) {
+    out.clear();
+    for chunk in xtab.chunks_exact(HBLOCK) {
+        let base = chunk[0].0 as usize;
+        let mut blk = HBlock {
+            base,
+            idx: [0; HBLOCK],
+            w: [0; HBLOCK],
+            usable: base + 2 * HBLOCK <= sw,
+        };
+        for (k, &(i, f)) in chunk.iter().enumerate() {
+            let rel = (i as usize).wrapping_sub(base);
+            blk.usable &= rel < 2 * HBLOCK - 1;
+            blk.idx[k] = rel as u8;
+            blk.w[k] = f as u8;
+        }
+        out.push(blk);
+    }
+}
+
+/// One source row through the horizontal pass: `out[x] = (128 - f) p_i + f p_{i+1}` for
+/// `(i, f) = xtab[x]`, with AVX-512 VBMI byte shuffles on the usable [`HBlock`]s when the
+/// CPU has them and the vector level allows ([`simd::vbmi_allowed`]), scalar elsewhere;
+/// both give the same integers.
+fn hrow(row: &[u8], xtab: &[(u32, u16)], blocks: &[HBlock], out: &mut [u16]) {
+    let mut vector_done = false;
+    #[cfg(target_arch = "x86_64")]
+    if simd::vbmi_allowed() {
+        // SAFETY: the CPU has the features (vbmi_allowed checked them at run time).
+        #[allow(unsafe_code)]
+        unsafe {
+            hrow_vbmi(row, blocks, out);
+        }
+        vector_done = true;
+    }
+    for (c, (o, t)) in out.chunks_mut(HBLOCK).zip(xtab.chunks(HBLOCK)).enumerate() {
+        if vector_done && blocks.get(c).is_some_and(|b| b.usable) {
+            continue;
+        }
+        for (o, &(i, f)) in o.iter_mut().zip(t) {
+            let i = i as usize;
+            let (a, b) = match row.get(i..i + 2) {
+                Some(p) => (u16::from(p[0]), u16::from(p[1])),
+                None => (0, 0),
+            };
+            *o = a * (RESIZE_ONE as u16 - f) + b * f;
+        }
+    }
+}
+
+/// The usable blocks of [`hrow`]; unusable ones are left to the scalar loop.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
+#[allow(unsafe_code)]
+fn hrow_vbmi(row: &[u8], blocks: &[HBlock], out: &mut [u16]) {
+    use std::arch::x86_64::*;
+    let one = _mm512_set1_epi8(1);
+    let full = _mm512_set1_epi16(RESIZE_ONE as i16);
+    for (b, blk) in blocks.iter().enumerate() {
+        let (Some(src), Some(dst)) = (
+            row.get(blk.base..blk.base + 2 * HBLOCK),
+            out.get_mut(b * HBLOCK..(b + 1) * HBLOCK),
+        ) else {
+            continue;
+        };
+        if !blk.usable {
+            continue;
+        }
+        // SAFETY: `src` holds 128 bytes, `blk.idx`/`blk.w` 64, `dst` 64 u16 (128 bytes):
+        // every unaligned load and store below stays inside them.
+        unsafe {
+            let lo = _mm512_loadu_si512(src.as_ptr().cast());
+            let hi = _mm512_loadu_si512(src.as_ptr().add(HBLOCK).cast());
+            let idx = _mm512_loadu_si512(blk.idx.as_ptr().cast());
+            let w = _mm512_loadu_si512(blk.w.as_ptr().cast());
+            let p0 = _mm512_permutex2var_epi8(lo, idx, hi);
+            let p1 = _mm512_permutex2var_epi8(lo, _mm512_add_epi8(idx, one), hi);
+            let halves = [
+                (
+                    _mm512_castsi512_si256(p0),
+                    _mm512_castsi512_si256(p1),
+                    _mm512_castsi512_si256(w),
+                ),
+                (
+                    _mm512_extracti64x4_epi64::<1>(p0),
+                    _mm512_extracti64x4_epi64::<1>(p1),
+                    _mm512_extracti64x4_epi64::<1>(w),
+                ),
+            ];
+            for (h, (a, c, f)) in halves.into_iter().enumerate() {
+                let (a, c, f) = (
+                    _mm512_cvtepu8_epi16(a),
+                    _mm512_cvtepu8_epi16(c),
+                    _mm512_cvtepu8_epi16(f),
+                );
+                let r = _mm512_add_epi16(
+                    _mm512_mullo_epi16(a, _mm512_sub_epi16(full, f)),
+                    _mm512_mullo_epi16(c, f),
+                );
+                _mm512_storeu_si512(dst.as_mut_ptr().add(h * 32).cast(), r);
+            }
+        }
+    }
 }
 
 /// Fixed-point bilinear weights: 7 bits per axis (sum 128).
@@ -220,16 +341,7 @@ fn resize_bilinear_rows(src: &GrayView<'_>, dst: &mut GrayBuf, scratch: &mut Res
     scratch.xtab.extend((0..dw).map(|x| resize_tab(x, sx, sw)));
     scratch.h0.resize(dw, 0);
     scratch.h1.resize(dw, 0);
-    let hrow = |row: &[u8], xtab: &[(u32, u16)], out: &mut [u16]| {
-        for (o, &(i, f)) in out.iter_mut().zip(xtab.iter()) {
-            let i = i as usize;
-            let (a, b) = match row.get(i..i + 2) {
-                Some(p) => (u16::from(p[0]), u16::from(p[1])),
-                None => (0, 0),
-            };
-            *o = a * (RESIZE_ONE as u16 - f) + b * f;
-        }
-    };
+    hblocks(&scratch.xtab, sw, &mut scratch.blocks);
     // Source rows currently held in h0 / h1.
     let mut held: (usize, usize) = (usize::MAX, usize::MAX);
     for (y, out) in dst.data.chunks_exact_mut(dw).enumerate() {
@@ -239,10 +351,10 @@ fn resize_bilinear_rows(src: &GrayView<'_>, dst: &mut GrayBuf, scratch: &mut Res
             if held.1 == iy {
                 std::mem::swap(&mut scratch.h0, &mut scratch.h1);
             } else if let Some(r) = src.row(iy) {
-                hrow(r, &scratch.xtab, &mut scratch.h0);
+                hrow(r, &scratch.xtab, &scratch.blocks, &mut scratch.h0);
             }
             if let Some(r) = src.row(iy + 1) {
-                hrow(r, &scratch.xtab, &mut scratch.h1);
+                hrow(r, &scratch.xtab, &scratch.blocks, &mut scratch.h1);
             }
             held = (iy, iy + 1);
         }
@@ -374,6 +486,44 @@ mod tests {
         // x_dst = 0 samples u = 0.5: mean of 0 and 10.
         assert_eq!(out.data[0], 5);
         assert_eq!(out.data[7], 145);
+    }
+
+    #[test]
+    fn resize_is_the_same_on_every_simd_level() {
+        use crate::features::simd::{Level, with_max_level};
+        // Pyramid-like ratios, widths around and below the 64-pixel vector block, a
+        // strided view, and 2x (where blocks span more source bytes).
+        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        let data: Vec<u8> = (0..700 * 300)
+            .map(|_| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                state as u8
+            })
+            .collect();
+        for (sw, sh, dw, dh, stride) in [
+            (700, 300, 583, 250, 700),
+            (640, 300, 533, 250, 700),
+            (129, 40, 107, 33, 700),
+            (90, 30, 75, 25, 700),
+            (600, 200, 300, 100, 700),
+            (200, 100, 199, 99, 700),
+        ] {
+            let Ok(v) = GrayView::with_stride(&data, sw, sh, stride) else {
+                panic!("view {sw}x{sh}");
+            };
+            let run = |level| {
+                with_max_level(level, || {
+                    let mut out = GrayBuf::default();
+                    out.reshape(dw, dh);
+                    resize_bilinear(&v, &mut out, &mut ResizeScratch::default());
+                    out.data
+                })
+            };
+            let base = run(Level::Baseline);
+            assert_eq!(run(Level::Avx512), base, "{sw}x{sh} -> {dw}x{dh}");
+        }
     }
 
     #[test]

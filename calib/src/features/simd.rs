@@ -73,6 +73,26 @@ fn avx2_detected() -> bool {
         && std::arch::is_x86_feature_detected!("popcnt")
 }
 
+/// Whether the CPU has AVX-512 VBMI (byte permutes), beside [`Level::Avx512`]'s set.
+#[cfg(target_arch = "x86_64")]
+fn vbmi_detected() -> bool {
+    static VBMI: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *VBMI.get_or_init(|| std::arch::is_x86_feature_detected!("avx512vbmi"))
+}
+
+/// Whether a kernel may use AVX-512 VBMI here: the CPU has it, and the vector level
+/// (including [`with_max_level`]'s cap) is [`Level::Avx512`].
+pub fn vbmi_allowed() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        max_level() == Level::Avx512 && vbmi_detected()
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
 thread_local! {
     /// Cap on the level of [`dispatch`] on this thread (see [`with_max_level`]).
     static CAP: std::cell::Cell<Level> = const { std::cell::Cell::new(Level::Avx512) };
