@@ -36,6 +36,8 @@ fn run_experiment(name: &str, out: &Path) -> serde_json::Value {
             .expect("results.json parses");
     assert_eq!(results["experiment"], name);
     assert_eq!(results["seeds"].as_array().map(Vec::len), Some(2));
+    // Ours ran with the paper's keypoint distribution, and results.json says so.
+    assert_eq!(results["parameters"]["orb_distribution"], "quadtree");
     results
 }
 

@@ -66,6 +66,10 @@ pub struct ExperimentArgs {
     /// Skip the optional OpenCV reference columns even when .venv-ref exists.
     #[arg(long)]
     pub no_reference: bool,
+    /// ORB keypoint selection of our self-calibration in noise, motions and datasets:
+    /// quadtree (the paper's) or retain-best (OpenCV's strongest corners).
+    #[arg(long, value_enum, default_value_t = super::calib::Distribution::Quadtree)]
+    pub orb_distribution: super::calib::Distribution,
 }
 
 /// Runs the experiment.
@@ -92,6 +96,7 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
             seed: args.seed,
             image_scale: args.image_scale,
             reference: !args.no_reference,
+            orb_distribution: args.orb_distribution.into(),
             out: OutputDir::create(&out_path)?,
         })
     };

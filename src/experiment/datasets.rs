@@ -22,15 +22,15 @@ use anyhow::{Context, Result};
 use calib::board::{BoardOptions, BoardSpec, board_view};
 use calib::handeye::{HandEyeOptions, Method, RelativeMotion, refine::pair_residual};
 use calib::relpose::CameraModel;
-use calib::selfcal::{CalibView, SelfCalParams, self_calibrate};
+use calib::selfcal::{CalibView, self_calibrate};
 use calib::zhi::{ZhiParams, calibrate_zhi};
 use nalgebra::Isometry3;
 use rayon::prelude::*;
 use serde::Serialize;
 
 use super::noise::{
-    Cell, METHODS, SimContext, VIEWS, box_plots, error_table, record_outcomes, refusal_table,
-    render_trial, run_methods,
+    Cell, METHODS, SimContext, VIEWS, box_plots, error_table, ours_params, record_outcomes,
+    refusal_table, render_trial, run_methods,
 };
 use super::progress::Progress;
 use super::report::{Report, Results, Table, fmt_num, fmt_pct};
@@ -105,7 +105,7 @@ pub fn board_residuals(motions: &[RelativeMotion], x: &Isometry3<f64>) -> (f64, 
 /// Rendering, reading shecar, plotting or writing failures.
 pub fn run(settings: &Settings) -> Result<()> {
     let trials = settings.trials_or(DEFAULT_TRIALS);
-    let ctx = SimContext::new(settings.image_scale)?;
+    let ctx = SimContext::new(settings)?;
     let progress = Progress::new("datasets", (2 * trials + 3) as u64);
     let cond = "simulator".to_owned();
     let mut cells = vec![vec![Cell::default(); METHODS.len()]];
@@ -178,6 +178,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     report.heading("Dataset 2: shecar (ZHI's sample)");
     let shecar = shecar_scores(settings, &progress);
     let mut results = Results::new("datasets", settings.seed);
+    results.parameter("orb_distribution", settings.orb_distribution.name())?;
     match &shecar {
         Ok((scores, scale, camera, board_pairs)) => {
             report.paragraph(&format!(
@@ -345,7 +346,7 @@ fn shecar_scores(settings: &Settings, progress: &Progress) -> Result<ShecarOut> 
         }
     };
     scores.push(score("board", &board_x, (f64::NAN, f64::NAN)));
-    let ours = self_calibrate(&views, &camera, &SelfCalParams::for_camera(&camera))
+    let ours = self_calibrate(&views, &camera, &ours_params(&camera, settings))
         .map_err(|e| anyhow::anyhow!("ours refused on shecar: {e}"))?;
     progress.inc(1);
     scores.push(score(

@@ -63,6 +63,9 @@ pub struct Settings {
     /// Run the optional OpenCV reference columns when its venv exists ([`reference_python`]);
     /// `--no-reference` turns them off.
     pub reference: bool,
+    /// `--orb-distribution`: the ORB keypoint selection of our self-calibration in the
+    /// calibration experiments (default the paper's quadtree).
+    pub orb_distribution: calib::features::KeypointDistribution,
     /// The output folder (created).
     pub out: OutputDir,
 }

@@ -33,7 +33,7 @@ const STREAM_NOISE: u64 = 31;
 /// Rendering, plotting or writing failures.
 pub fn run(settings: &Settings) -> Result<()> {
     let trials = settings.trials_or(DEFAULT_TRIALS);
-    let ctx = SimContext::new(settings.image_scale)?;
+    let ctx = SimContext::new(settings)?;
     let counts: Vec<usize> = (MIN_VIEWS..=VIEWS).collect();
     let conditions: Vec<String> = counts.iter().map(|k| format!("{k}")).collect();
     let progress = Progress::new("motions", (trials * (1 + counts.len())) as u64);
@@ -103,6 +103,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     results.seeds = seeds;
     results.parameter("trials", trials)?;
     results.parameter("views", &counts)?;
+    results.parameter("orb_distribution", settings.orb_distribution.name())?;
     results.parameter("noise_sigma", NOISE_SIGMA)?;
     results.parameter("width", ctx.camera.width)?;
     results.parameter("height", ctx.camera.height)?;

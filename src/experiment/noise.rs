@@ -83,14 +83,18 @@ pub struct SimContext {
     rays: RayTable,
     /// The calibration's camera model (the rendered intrinsics).
     pub camera: CameraModel,
+    /// Our self-calibration's parameters (defaults for `camera`, with the ORB keypoint
+    /// distribution of `--orb-distribution`).
+    pub ours: SelfCalParams,
 }
 
 impl SimContext {
-    /// Builds the scene and the camera at `RENDER_SCALE * image_scale`.
+    /// Builds the scene and the camera at `RENDER_SCALE * settings.image_scale`.
     ///
     /// # Errors
     /// Scene or camera construction failures.
-    pub fn new(image_scale: f64) -> Result<Self> {
+    pub fn new(settings: &Settings) -> Result<Self> {
+        let image_scale = settings.image_scale;
         let (scene, layout) = sim::scene::SubstationBuilder::new(SCENE_SEED)
             .build()
             .context("building the simulated substation")?;
@@ -107,13 +111,23 @@ impl SimContext {
             k3: k.k3,
             ..CameraModel::pinhole(k.width, k.height, k.fx, k.fy, k.cx, k.cy)
         };
+        let ours = ours_params(&camera, settings);
         Ok(Self {
             scene,
             layout,
             rays,
             camera,
+            ours,
         })
     }
+}
+
+/// Our self-calibration's parameters for `camera` under `settings`
+/// (`--orb-distribution`).
+pub fn ours_params(camera: &CameraModel, settings: &Settings) -> SelfCalParams {
+    let mut p = SelfCalParams::for_camera(camera);
+    p.orb.distribution = settings.orb_distribution;
+    p
 }
 
 /// One rendered view.
@@ -321,12 +335,12 @@ pub fn run_methods(
         })
         .collect();
     let cam = &ctx.camera;
-    let ours = SelfCalParams::for_camera(cam);
+    let ours = &ctx.ours;
     let score = |x: &Isometry3<f64>| PoseErrors::of(x, &trial.true_mount);
-    let a = self_calibrate(&rgbd, cam, &ours)
+    let a = self_calibrate(&rgbd, cam, ours)
         .map(|r| score(&r.solution.tool0_from_camera))
         .map_err(|e| e.to_string());
-    let mono_result = self_calibrate(&mono, cam, &ours);
+    let mono_result = self_calibrate(&mono, cam, ours);
     let b = mono_result
         .as_ref()
         .map(|r| score(&r.solution.tool0_from_camera))
@@ -539,7 +553,7 @@ pub fn refusal_table(refusals: &RefusalCounter) -> Table {
 /// Rendering, plotting or writing failures.
 pub fn run(settings: &Settings) -> Result<()> {
     let trials = settings.trials_or(DEFAULT_TRIALS);
-    let ctx = SimContext::new(settings.image_scale)?;
+    let ctx = SimContext::new(settings)?;
     let conditions: Vec<String> = NOISE_SIGMAS
         .iter()
         .map(|s| format!("sigma={s:.2}"))
@@ -590,6 +604,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     results.seeds = seeds;
     results.parameter("trials", trials)?;
     results.parameter("views", VIEWS)?;
+    results.parameter("orb_distribution", settings.orb_distribution.name())?;
     results.parameter("noise_sigmas", NOISE_SIGMAS)?;
     results.parameter("width", ctx.camera.width)?;
     results.parameter("height", ctx.camera.height)?;

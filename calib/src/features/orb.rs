@@ -63,6 +63,16 @@ pub enum KeypointDistribution {
     RetainBest,
 }
 
+impl KeypointDistribution {
+    /// The name used by the CLI and in results files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Quadtree => "quadtree",
+            Self::RetainBest => "retain-best",
+        }
+    }
+}
+
 /// Indices (ascending) of at most `n` of the corners `xy` with responses `response`,
 /// chosen by `distribution`. Ties in [`KeypointDistribution::RetainBest`] go to the lower
 /// index, so the choice is deterministic.
