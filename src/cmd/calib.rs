@@ -54,6 +54,11 @@ pub struct SelfArgs {
     /// Ignore recorded depth: the monocular path even when depth is present.
     #[arg(long)]
     pub mono: bool,
+    /// ORB keypoint selection (ours): quadtree (the paper's) or retain-best (the strongest
+    /// corners; far more robust on noisy images, see `rodlog experiment noise
+    /// --orb-distribution`).
+    #[arg(long, value_enum, default_value_t = Distribution::Quadtree)]
+    pub distribution: Distribution,
 }
 
 /// Arguments of `rodlog calib board`.
@@ -231,12 +236,13 @@ fn self_calibration(args: &SelfArgs) -> Result<()> {
     }
     let (views, camera) = views_from_messages(&messages)
         .with_context(|| format!("cannot build calibration views from {}", args.rec.display()))?;
-    let params = SelfCalParams::for_camera(&camera);
+    let mut params = SelfCalParams::for_camera(&camera);
+    params.orb.distribution = args.distribution.into();
     let result = self_calibrate(&views, &camera, &params).context("self-calibration refused")?;
     let written = match &args.out {
         Some(out) => Some((
             out,
-            write_calibrated_recording(&args.rec, out, views.len(), args.mono)?,
+            write_calibrated_recording(&args.rec, out, views.len(), args)?,
         )),
         None => None,
     };
@@ -277,7 +283,7 @@ fn write_calibrated_recording(
     rec: &std::path::Path,
     out: &std::path::Path,
     captures: usize,
-    mono: bool,
+    args: &SelfArgs,
 ) -> Result<u64> {
     use calib::selfcal::{CalibrationStage, CalibrationStageConfig};
     use recorder::{McapSink, McapStreamSink, MetadataRecord, Sink, SinkFanout, SinkOptions};
@@ -292,7 +298,8 @@ fn write_calibrated_recording(
             McapReader::open(rec).with_context(|| format!("cannot read {}", rec.display()))?;
         let config = CalibrationStageConfig {
             captures_to_solve: captures,
-            ignore_depth: mono,
+            ignore_depth: args.mono,
+            orb_distribution: args.distribution.into(),
             ..CalibrationStageConfig::default()
         };
         let stages: Vec<Box<dyn msgs::Stage + Send>> =
@@ -323,7 +330,11 @@ fn write_calibrated_recording(
             &MetadataRecord::new(SELF_CAL_RECORD)
                 .with("source", rec.display().to_string())
                 .with("captures", captures.to_string())
-                .with("mode", if mono { "mono" } else { "auto" }),
+                .with("mode", if args.mono { "mono" } else { "auto" })
+                .with(
+                    "orb_distribution",
+                    calib::features::KeypointDistribution::from(args.distribution).name(),
+                ),
         )?;
         fanout.finish()?;
         Ok(report.written)

@@ -89,6 +89,7 @@ use super::messages::{
 use super::pairs::extract_features;
 use super::views::{CalibView, intensity_stats};
 use super::{MIN_VIEWS, SelfCalError, SelfCalParams, SelfCalResult, self_calibrate};
+use crate::features::KeypointDistribution;
 use crate::relpose::CameraModel;
 
 /// Producer name of the stage (channel metadata `producer=calibration`).
@@ -134,6 +135,8 @@ pub struct CalibrationStageConfig {
     pub ignore_depth: bool,
     /// RANSAC seed of [`SelfCalParams`]. Default [`SelfCalParams::default`]'s.
     pub seed: u64,
+    /// ORB keypoint selection of the calibration. Default the paper's quadtree.
+    pub orb_distribution: KeypointDistribution,
 }
 
 impl Default for CalibrationStageConfig {
@@ -152,6 +155,7 @@ impl Default for CalibrationStageConfig {
             tf_history_ns: 10_000_000_000,
             ignore_depth: false,
             seed: SelfCalParams::default().seed,
+            orb_distribution: KeypointDistribution::Quadtree,
         }
     }
 }
@@ -468,6 +472,7 @@ impl CalibrationStage {
     fn selfcal_params(&self, camera: &CameraModel) -> SelfCalParams {
         let mut p = SelfCalParams::for_camera(camera);
         p.seed = self.config.seed;
+        p.orb.distribution = self.config.orb_distribution;
         p
     }
 
