@@ -15,6 +15,10 @@
 //!    by `(4 * 7 * 255)^-4`. As in OpenCV, FAST is first thinned by its own score to twice the
 //!    level's quota (here with the quadtree, so the thinning keeps the spread).
 //! 3. The quadtree ([`super::quadtree`]) keeps the level's quota, best Harris per node.
+//!    [`KeypointDistribution::RetainBest`] replaces the quadtree in steps 2-3 by OpenCV's
+//!    choice, the strongest wherever they are: more GMS matches on strong texture and far
+//!    more robust to image noise, less coverage (figures in `rodlog experiment matchers` and
+//!    `rodlog experiment noise --orb-distribution retain-best`).
 //!    Quotas follow ORB-SLAM, `n_l = N (1 - 1/s) s^-l / (1 - s^-L)`, processed from the
 //!    coarsest level down; a level short of its quota passes the shortfall to the next finer.
 //! 4. Orientation by the intensity centroid (ORB eq. 1-3): `m_pq = sum x^p y^q I(x, y)`
