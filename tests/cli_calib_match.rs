@@ -31,6 +31,7 @@ fn match_with_each_distribution_finds_true_matches() {
             path.display().to_string()
         })
         .collect();
+    let mut all_matches = Vec::new();
     for distribution in ["quadtree", "retain-best"] {
         let out = rodlog(&[
             "calib",
@@ -66,7 +67,12 @@ fn match_with_each_distribution_finds_true_matches() {
             "{distribution}: {good} of {} matches true",
             matches.len()
         );
+        all_matches.push(matches.clone());
     }
+    assert_ne!(
+        all_matches[0], all_matches[1],
+        "--distribution changed nothing"
+    );
     let bad = rodlog(&[
         "calib",
         "match",

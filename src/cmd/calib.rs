@@ -54,8 +54,8 @@ pub struct SelfArgs {
     /// Ignore recorded depth: the monocular path even when depth is present.
     #[arg(long)]
     pub mono: bool,
-    /// ORB keypoint selection (ours): quadtree (the paper's) or retain-best (the strongest
-    /// corners; far more robust on noisy images, see `rodlog experiment noise
+    /// ORB keypoint selection (method ours only): quadtree (the paper's) or retain-best (the
+    /// strongest corners; far more robust on noisy images, see `rodlog experiment noise
     /// --orb-distribution`).
     #[arg(long, value_enum, default_value_t = Distribution::Quadtree)]
     pub distribution: Distribution,
@@ -80,7 +80,8 @@ pub struct BoardArgs {
     pub json: bool,
 }
 
-/// `--distribution` of `rodlog calib match` ([`calib::features::KeypointDistribution`]).
+/// `--distribution` of `rodlog calib match` and `calib self`, `--orb-distribution` of the
+/// calibration experiments ([`calib::features::KeypointDistribution`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Distribution {
     /// ORB-SLAM's quadtree (the paper's front end).
@@ -113,9 +114,9 @@ pub struct MatchArgs {
     /// Features per image (ORB's target; SIFT keeps at most this many strongest).
     #[arg(long, default_value_t = 2000)]
     pub features: usize,
-    /// How ORB keeps its features on each pyramid level: quadtree (the paper's, even
-    /// coverage of the textured image) or retain-best (OpenCV's: the strongest corners,
-    /// denser, so GMS finds more support but coverage is patchier).
+    /// How ORB keeps its features on each pyramid level (ORB methods only): quadtree (the
+    /// paper's, even coverage of the textured image) or retain-best (OpenCV's: the strongest
+    /// corners, denser, so GMS finds more support but coverage is patchier).
     #[arg(long, value_enum, default_value_t = Distribution::Quadtree)]
     pub distribution: Distribution,
     /// Print the match JSON (DESIGN.md section 4) on stdout.

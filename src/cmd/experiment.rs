@@ -66,8 +66,9 @@ pub struct ExperimentArgs {
     /// Skip the optional OpenCV reference columns even when .venv-ref exists.
     #[arg(long)]
     pub no_reference: bool,
-    /// ORB keypoint selection of our self-calibration in noise, motions and datasets:
-    /// quadtree (the paper's) or retain-best (OpenCV's strongest corners).
+    /// ORB keypoint selection of our self-calibration in noise, motions and datasets (the
+    /// other experiments ignore it): quadtree (the paper's) or retain-best (OpenCV's
+    /// strongest corners).
     #[arg(long, value_enum, default_value_t = super::calib::Distribution::Quadtree)]
     pub orb_distribution: super::calib::Distribution,
 }

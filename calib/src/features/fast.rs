@@ -7,8 +7,9 @@
 //! `score = max over arcs A of min_{i in A} |I_i - I_p|` (bright arcs with `I_i - I_p`, dark
 //! with `I_p - I_i`), so `p` is a corner at `t` exactly when `score > t`. We therefore
 //! compute the score of every pixel, 64 pixels at a time on byte lanes (saturating
-//! differences, windowed minima by doubling; it vectorises with no branch), and threshold
-//! it: the segment test and the scoring are one computation. Non-maximum suppression
+//! differences, windowed minima by doubling, branch-free so it vectorises), and threshold
+//! it: the segment test and the scoring are one computation. Blocks of 64 where no two
+//! circle-adjacent compass pixels pass are skipped (a necessary condition of any arc of 9). Non-maximum suppression
 //! keeps a corner whose score beats its 8 neighbours (ties: the earlier one in raster order
 //! wins).
 
@@ -557,6 +558,109 @@ mod tests {
         let short = [[0u8; LANES]; 7];
         let rows: [&[u8]; 7] = std::array::from_fn(|k| short[k].as_slice());
         assert_eq!(block_scores(&rows, 3), None);
+    }
+
+    /// The definition, pixel by pixel: scores by [`arc_score`], corners where `score > t`
+    /// inside the clipped rect, suppression against the 8 neighbours' scores (0 where no
+    /// corner), earlier neighbours strictly lower, later ones not higher.
+    fn brute_force(img: &GrayView<'_>, rect: Rect, t: u8, nonmax: bool) -> Vec<Corner> {
+        let (w, h) = (img.width(), img.height());
+        let r = FAST_RADIUS;
+        let score = |x: usize, y: usize| -> u8 {
+            if x < r || y < r || x + r >= w || y + r >= h {
+                return 0;
+            }
+            let rows: [&[u8]; 7] = std::array::from_fn(|k| img.row(y + k - 3).unwrap_or(&[]));
+            let Some((cv, vals)) = circle(&rows, x) else {
+                return 0;
+            };
+            let d: [i16; 16] = std::array::from_fn(|j| i16::from(vals[j]) - i16::from(cv));
+            let s = arc_score(&d);
+            if s > t { s } else { 0 }
+        };
+        let mut out = Vec::new();
+        for y in rect.y0.max(r)..rect.y1.min(h.saturating_sub(r)) {
+            for x in rect.x0.max(r)..rect.x1.min(w.saturating_sub(r)) {
+                let s = score(x, y);
+                if s == 0 {
+                    continue;
+                }
+                let keep = !nonmax
+                    || (s > score(x - 1, y - 1)
+                        && s > score(x, y - 1)
+                        && s > score(x + 1, y - 1)
+                        && s > score(x - 1, y)
+                        && s >= score(x + 1, y)
+                        && s >= score(x - 1, y + 1)
+                        && s >= score(x, y + 1)
+                        && s >= score(x + 1, y + 1));
+                if keep {
+                    out.push(Corner {
+                        x: x as u32,
+                        y: y as u32,
+                        score: s,
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn detect_equals_the_definition() {
+        use crate::features::simd::{Level, with_max_level};
+        // Odd sizes (narrower than a vector block too), rects at the border, inside, small.
+        for (w, h, seed) in [
+            (157usize, 61usize, 3u64),
+            (64, 40, 5),
+            (40, 30, 7),
+            (301, 45, 9),
+        ] {
+            let img = crate::features::synth::textured_image(w, h, seed);
+            let view = img.view();
+            let rects = [
+                Rect {
+                    x0: 0,
+                    y0: 0,
+                    x1: w,
+                    y1: h,
+                },
+                Rect {
+                    x0: 19,
+                    y0: 19,
+                    x1: w - 19,
+                    y1: h - 19,
+                },
+                Rect {
+                    x0: 5,
+                    y0: 4,
+                    x1: 35,
+                    y1: 26,
+                },
+                Rect {
+                    x0: w - 10,
+                    y0: 2,
+                    x1: w,
+                    y1: h,
+                },
+            ];
+            let mut det = FastDetector::new();
+            for rect in rects {
+                for (t, nonmax) in [(7u8, true), (20, true), (7, false), (1, true)] {
+                    let want = brute_force(&view, rect, t, nonmax);
+                    for level in [Level::Baseline, Level::Avx512] {
+                        let mut got = Vec::new();
+                        with_max_level(level, || {
+                            det.detect(&view, rect, t, nonmax, &mut got);
+                        });
+                        assert_eq!(
+                            got, want,
+                            "{w}x{h} {rect:?} t={t} nonmax={nonmax} {level:?}"
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -210,15 +210,14 @@ fn hblocks(xtab: &[(u32, u16)], sw: usize, out: &mut Vec<HBlock>) {
 /// CPU has them and the vector level allows ([`simd::vbmi_allowed`]), scalar elsewhere;
 /// both give the same integers.
 fn hrow(row: &[u8], xtab: &[(u32, u16)], blocks: &[HBlock], out: &mut [u16]) {
-    let mut vector_done = false;
+    let vector_done = cfg!(target_arch = "x86_64") && simd::vbmi_allowed();
     #[cfg(target_arch = "x86_64")]
-    if simd::vbmi_allowed() {
+    if vector_done {
         // SAFETY: the CPU has the features (vbmi_allowed checked them at run time).
         #[allow(unsafe_code)]
         unsafe {
             hrow_vbmi(row, blocks, out);
         }
-        vector_done = true;
     }
     for (c, (o, t)) in out.chunks_mut(HBLOCK).zip(xtab.chunks(HBLOCK)).enumerate() {
         if vector_done && blocks.get(c).is_some_and(|b| b.usable) {
@@ -489,7 +488,52 @@ mod tests {
     }
 
     #[test]
+    fn hblock_encoding_reproduces_the_scalar_pass() {
+        // What the VBMI shuffle computes, emulated on any CPU: every usable block's
+        // (idx, w) must give the scalar pass's value for each of its 64 pixels.
+        let row: Vec<u8> = (0..1280u32).map(|i| (i * 37 % 251) as u8).collect();
+        for (sw, dw) in [
+            (1280usize, 1067usize),
+            (1067, 889),
+            (300, 250),
+            (600, 300),
+            (130, 64),
+        ] {
+            let s = sw as f64 / dw as f64;
+            let xtab: Vec<(u32, u16)> = (0..dw).map(|x| resize_tab(x, s, sw)).collect();
+            let mut blocks = Vec::new();
+            hblocks(&xtab, sw, &mut blocks);
+            assert_eq!(blocks.len(), dw / HBLOCK);
+            let mut usable = 0;
+            for (b, blk) in blocks.iter().enumerate() {
+                if !blk.usable {
+                    continue;
+                }
+                usable += 1;
+                for k in 0..HBLOCK {
+                    let (i, f) = xtab[b * HBLOCK + k];
+                    let want =
+                        u16::from(row[i as usize]) * (128 - f) + u16::from(row[i as usize + 1]) * f;
+                    let at = blk.base + usize::from(blk.idx[k]);
+                    let w = u16::from(blk.w[k]);
+                    let got = u16::from(row[at]) * (128 - w) + u16::from(row[at + 1]) * w;
+                    assert_eq!(got, want, "{sw} -> {dw}, block {b}, pixel {k}");
+                }
+            }
+            // Only the blocks whose 128 source bytes run past the row are left out.
+            assert!(
+                usable + 2 >= blocks.len(),
+                "{sw} -> {dw}: {usable} of {}",
+                blocks.len()
+            );
+        }
+    }
+
+    #[test]
     fn resize_is_the_same_on_every_simd_level() {
+        if !crate::features::simd::vbmi_allowed() {
+            eprintln!("no AVX-512 VBMI here: only the scalar resize is compared");
+        }
         use crate::features::simd::{Level, with_max_level};
         // Pyramid-like ratios, widths around and below the 64-pixel vector block, a
         // strided view, and 2x (where blocks span more source bytes).

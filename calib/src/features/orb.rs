@@ -61,7 +61,9 @@ pub enum KeypointDistribution {
     #[default]
     Quadtree,
     /// The strongest corners wherever they are, as OpenCV's ORB
-    /// (`KeyPointsFilter::retainBest`): dense on strong texture, none on weak texture.
+    /// (`KeyPointsFilter::retainBest`, which also keeps every corner tied with the last one
+    /// kept, so a level may keep a few more than its quota): dense on strong texture, none
+    /// on weak texture.
     /// GMS scores a match by the matches around it, so dense keypoints give it more support:
     /// more matches survive, at the cost of coverage (see `rodlog experiment matchers`).
     RetainBest,
@@ -77,9 +79,11 @@ impl KeypointDistribution {
     }
 }
 
-/// Indices (ascending) of at most `n` of the corners `xy` with responses `response`,
-/// chosen by `distribution`. Ties in [`KeypointDistribution::RetainBest`] go to the lower
-/// index, so the choice is deterministic.
+/// Indices (ascending) of the corners `xy` with responses `response` chosen by
+/// `distribution`: at most `n` for the quadtree; for
+/// [`KeypointDistribution::RetainBest`] the `n` strongest plus every corner tied with the
+/// `n`-th (as OpenCV; cutting a tie by index would favour the top of the image, since FAST
+/// scores are small integers and corners come in raster order).
 fn select(
     distribution: KeypointDistribution,
     quad: &mut Quadtree,
@@ -95,13 +99,22 @@ fn select(
             out.clear();
             let count = xy.len().min(response.len());
             out.extend(0..count as u32);
-            out.sort_unstable_by(|&a, &b| {
-                response[b as usize]
-                    .total_cmp(&response[a as usize])
-                    .then(a.cmp(&b))
-            });
-            out.truncate(n);
-            out.sort_unstable();
+            if count > n && n > 0 {
+                out.sort_unstable_by(|&a, &b| {
+                    response[b as usize]
+                        .total_cmp(&response[a as usize])
+                        .then(a.cmp(&b))
+                });
+                let cut = response[out[n - 1] as usize];
+                let keep = n + out[n..]
+                    .iter()
+                    .take_while(|&&i| response[i as usize].total_cmp(&cut).is_eq())
+                    .count();
+                out.truncate(keep);
+                out.sort_unstable();
+            } else if n == 0 {
+                out.clear();
+            }
         }
     }
 }
@@ -608,6 +621,7 @@ fn harris_response_clamped(img: &GrayView<'_>, x: usize, y: usize) -> f32 {
 /// Intensity-centroid orientation (ORB eq. 1-3) over the disc `|v| <= r`,
 /// `|u| <= umax[|v|]`, `r = umax.len() - 1`: `atan2(m01, m10)` in radians, `(-pi, pi]`,
 /// in image axes (x right, y down). The caller keeps the disc inside the image.
+#[inline(always)]
 pub fn ic_angle(img: &GrayView<'_>, x: usize, y: usize, umax: &[i32]) -> f32 {
     let (mut m01, mut m10) = (0i64, 0i64);
     let r = umax.len() as isize - 1;
@@ -634,9 +648,9 @@ pub fn ic_angle(img: &GrayView<'_>, x: usize, y: usize, umax: &[i32]) -> f32 {
     (m01 as f64).atan2(m10 as f64) as f32
 }
 
-/// `x.round() as i32` (half away from zero) for `|x| < 2^22`, in operations that vectorise
-/// on every x86-64 level (`f32::round` is a library call without SSE4.1): the fraction
-/// `x - trunc(x)` is exact, and rounds away from zero when it reaches one half.
+/// `x.round() as i32` (half away from zero) for `|x| < 2^22`, written with truncation so the
+/// 256 offsets of [`describe`] are plain lane operations: the fraction `x - trunc(x)` is
+/// exact, and rounds away from zero when it reaches one half.
 #[inline(always)]
 fn round_half_away(x: f32) -> i32 {
     let t = x as i32;
@@ -663,6 +677,7 @@ pub fn soa_pattern() -> Box<SoaPattern> {
 /// step 5): test points rotated by `angle`, rounded to the nearest pixel, then compared;
 /// bit `i` is bit `i % 64` of word `i / 64`. Points outside the image read as 0 (the
 /// caller keeps keypoints [`MIN_EDGE_THRESHOLD`] from the border, so none are).
+#[inline(always)]
 pub fn describe(
     blurred: &GrayView<'_>,
     x: usize,

@@ -1,5 +1,6 @@
 //! Runtime CPU dispatch for the integer kernels of the feature front end (FAST, pyramid
-//! resize, smoothing, Hamming matching): the one audited place where `calib` uses `unsafe`.
+//! resize, smoothing, Hamming matching). `unsafe` in `calib` is here and in the AVX-512 VBMI
+//! byte shuffles of the pyramid resize (`gray.rs`, gated by [`vbmi_allowed`]).
 //!
 //! The workspace builds for `x86-64-v2` (SSE4.2 + popcnt, DESIGN.md section 8) so the binary
 //! runs on any recent x86-64. The kernels are plain safe Rust written as whole-row,
@@ -81,7 +82,8 @@ fn vbmi_detected() -> bool {
 }
 
 /// Whether a kernel may use AVX-512 VBMI here: the CPU has it, and the vector level
-/// (including [`with_max_level`]'s cap) is [`Level::Avx512`].
+/// (including [`with_max_level`]'s cap) is [`Level::Avx512`]. It reads this thread's cap,
+/// not the level given to [`dispatch_at`]; results are the same bits either way.
 pub fn vbmi_allowed() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
@@ -131,8 +133,8 @@ pub fn dispatch<K: Kernel>(k: K) -> K::Output {
 
 /// Runs `k` at `level`, or at the best level below it that this CPU supports (for tests
 /// comparing the paths, and to force the baseline).
-// The only `unsafe` of `calib`: calling a `#[target_feature]` function, guarded by the
-// run-time detection above it (module docs).
+// Calling a `#[target_feature]` function, guarded by the run-time detection above it
+// (module docs).
 #[allow(unsafe_code)]
 #[inline]
 pub fn dispatch_at<K: Kernel>(level: Level, k: K) -> K::Output {
