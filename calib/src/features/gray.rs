@@ -206,11 +206,11 @@ fn hblocks(xtab: &[(u32, u16)], sw: usize, out: &mut Vec<HBlock>) {
 }
 
 /// One source row through the horizontal pass: `out[x] = (128 - f) p_i + f p_{i+1}` for
-/// `(i, f) = xtab[x]`, with AVX-512 VBMI byte shuffles on the usable [`HBlock`]s when the
-/// CPU has them and the vector level allows ([`simd::vbmi_allowed`]), scalar elsewhere;
-/// both give the same integers.
-fn hrow(row: &[u8], xtab: &[(u32, u16)], blocks: &[HBlock], out: &mut [u16]) {
-    let vector_done = cfg!(target_arch = "x86_64") && simd::vbmi_allowed();
+/// `(i, f) = xtab[x]`, with AVX-512 VBMI byte shuffles on the usable [`HBlock`]s when `vbmi`
+/// (the caller's [`simd::vbmi_allowed`], checked once per image), scalar elsewhere; both
+/// give the same integers.
+fn hrow(row: &[u8], xtab: &[(u32, u16)], blocks: &[HBlock], vbmi: bool, out: &mut [u16]) {
+    let vector_done = cfg!(target_arch = "x86_64") && vbmi;
     #[cfg(target_arch = "x86_64")]
     if vector_done {
         // SAFETY: the CPU has the features (vbmi_allowed checked them at run time).
@@ -340,7 +340,12 @@ fn resize_bilinear_rows(src: &GrayView<'_>, dst: &mut GrayBuf, scratch: &mut Res
     scratch.xtab.extend((0..dw).map(|x| resize_tab(x, sx, sw)));
     scratch.h0.resize(dw, 0);
     scratch.h1.resize(dw, 0);
-    hblocks(&scratch.xtab, sw, &mut scratch.blocks);
+    let vbmi = simd::vbmi_allowed();
+    if vbmi {
+        hblocks(&scratch.xtab, sw, &mut scratch.blocks);
+    } else {
+        scratch.blocks.clear();
+    }
     // Source rows currently held in h0 / h1.
     let mut held: (usize, usize) = (usize::MAX, usize::MAX);
     for (y, out) in dst.data.chunks_exact_mut(dw).enumerate() {
@@ -350,10 +355,10 @@ fn resize_bilinear_rows(src: &GrayView<'_>, dst: &mut GrayBuf, scratch: &mut Res
             if held.1 == iy {
                 std::mem::swap(&mut scratch.h0, &mut scratch.h1);
             } else if let Some(r) = src.row(iy) {
-                hrow(r, &scratch.xtab, &scratch.blocks, &mut scratch.h0);
+                hrow(r, &scratch.xtab, &scratch.blocks, vbmi, &mut scratch.h0);
             }
             if let Some(r) = src.row(iy + 1) {
-                hrow(r, &scratch.xtab, &scratch.blocks, &mut scratch.h1);
+                hrow(r, &scratch.xtab, &scratch.blocks, vbmi, &mut scratch.h1);
             }
             held = (iy, iy + 1);
         }

@@ -216,9 +216,7 @@ pub struct OrbExtractor {
     corners: Vec<Corner>,
     low: Vec<Corner>,
     cell_count: Vec<u32>,
-    cell_start: Vec<usize>,
-    cell_fill: Vec<usize>,
-    by_cell: Vec<u32>,
+    fallback: Vec<(usize, Corner)>,
     xy: Vec<[f32; 2]>,
     resp: Vec<f32>,
     sub_xy: Vec<[f32; 2]>,
@@ -258,9 +256,7 @@ impl OrbExtractor {
             corners: Vec::new(),
             low: Vec::new(),
             cell_count: Vec::new(),
-            cell_start: Vec::new(),
-            cell_fill: Vec::new(),
-            by_cell: Vec::new(),
+            fallback: Vec::new(),
             xy: Vec::new(),
             resp: Vec::new(),
             sub_xy: Vec::new(),
@@ -392,35 +388,17 @@ impl OrbExtractor {
         for c in &self.corners {
             self.cell_count[cell_of(c)] += 1;
         }
-        if self.cell_count.contains(&0) {
-            // Low-threshold corners bucketed by cell (counting sort keeps raster order).
-            self.cell_start.clear();
-            self.cell_start.resize(ncols * nrows + 1, 0);
-            for c in &self.low {
-                self.cell_start[cell_of(c) + 1] += 1;
-            }
-            for i in 0..ncols * nrows {
-                self.cell_start[i + 1] += self.cell_start[i];
-            }
-            self.by_cell.clear();
-            self.by_cell.resize(self.low.len(), 0);
-            let mut fill = std::mem::take(&mut self.cell_fill);
-            fill.clear();
-            fill.extend_from_slice(&self.cell_start[..ncols * nrows]);
-            for (i, c) in self.low.iter().enumerate() {
-                let k = cell_of(c);
-                self.by_cell[fill[k]] = i as u32;
-                fill[k] += 1;
-            }
-            self.cell_fill = fill;
-            for cell in 0..ncols * nrows {
-                if self.cell_count[cell] == 0 {
-                    let (lo, hi) = (self.cell_start[cell], self.cell_start[cell + 1]);
-                    self.corners
-                        .extend(self.by_cell[lo..hi].iter().map(|&i| self.low[i as usize]));
-                }
-            }
-        }
+        // The empty cells' low-threshold corners, cell by cell (a stable sort keeps each
+        // cell's raster order).
+        self.fallback.clear();
+        self.fallback.extend(
+            self.low
+                .iter()
+                .map(|c| (cell_of(c), *c))
+                .filter(|&(cell, _)| self.cell_count[cell] == 0),
+        );
+        self.fallback.sort_by_key(|&(cell, _)| cell);
+        self.corners.extend(self.fallback.iter().map(|&(_, c)| c));
         if self.corners.is_empty() || quota == 0 {
             return;
         }
