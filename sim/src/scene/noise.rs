@@ -416,6 +416,8 @@ struct CellPoints {
     px: [[f32; 4]; 3],
     py: [[f32; 4]; 3],
     h: [u32; CELL_LANES],
+    /// Least `unit_f32(h)` of the 9 cells (see [`NoiseCache::nearest_cell_below`]).
+    min_unit: f32,
 }
 
 #[inline(always)]
@@ -437,12 +439,22 @@ fn cell_points(ix: u32, iy: u32, seed: u32) -> CellPoints {
         px[i / 4][i % 4] = CELL_X[i] + 0.8 * jitter16(h[i] & 0xffff) + pad;
         py[i / 4][i % 4] = CELL_Y[i] + 0.8 * jitter16(h[i] >> 16);
     }
-    CellPoints { px, py, h }
+    let mut min_unit = f32::MAX;
+    for &hi in h.iter().take(CELLS) {
+        let x = unit_f32(hi);
+        min_unit = if x < min_unit { x } else { min_unit };
+    }
+    CellPoints {
+        px,
+        py,
+        h,
+        min_unit,
+    }
 }
 
-/// [`Cell`] of the position `(fx, fy)` within the centre cell of `pts`.
+/// Squared distances from `(fx, fy)` to the feature points of `pts` (padding lanes ~1e36).
 #[inline(always)]
-fn nearest_points(pts: &CellPoints, fx: f32, fy: f32) -> Cell {
+fn squared_distances(pts: &CellPoints, fx: f32, fy: f32) -> [[f32; 4]; 3] {
     // Three groups of four lanes (one SSE vector each).
     let mut d = [[0.0_f32; 4]; 3];
     for ((dg, xg), yg) in d.iter_mut().zip(&pts.px).zip(&pts.py) {
@@ -451,16 +463,25 @@ fn nearest_points(pts: &CellPoints, fx: f32, fy: f32) -> Cell {
             *dl = ex * ex + ey * ey;
         }
     }
-    // Minimum is exact in any order: lane-wise over the groups, then across the lanes.
+    d
+}
+
+/// Least lane of `d` (exact in any order: lane-wise over the groups, then across lanes).
+#[inline(always)]
+fn min_lane(d: &[[f32; 4]; 3]) -> f32 {
     let lt = |a: f32, b: f32| if a < b { a } else { b };
-    let min4 = |d: &[[f32; 4]; 3]| {
-        let mut m = [0.0_f32; 4];
-        for l in 0..4 {
-            m[l] = lt(lt(d[0][l], d[1][l]), d[2][l]);
-        }
-        lt(lt(m[0], m[2]), lt(m[1], m[3]))
-    };
-    let f1 = min4(&d);
+    let mut m = [0.0_f32; 4];
+    for l in 0..4 {
+        m[l] = lt(lt(d[0][l], d[1][l]), d[2][l]);
+    }
+    lt(lt(m[0], m[2]), lt(m[1], m[3]))
+}
+
+/// [`Cell`] of the position `(fx, fy)` within the centre cell of `pts`.
+#[inline(always)]
+fn nearest_points(pts: &CellPoints, fx: f32, fy: f32) -> Cell {
+    let d = squared_distances(pts, fx, fy);
+    let f1 = min_lane(&d);
     // Lanes equal to the minimum (bit mask); the nearest cell is the first of them.
     let mut equal = 0_u32;
     let mut above = d;
@@ -476,7 +497,7 @@ fn nearest_points(pts: &CellPoints, fx: f32, fy: f32) -> Cell {
     let f2 = if equal.count_ones() >= 2 {
         f1
     } else {
-        min4(&above)
+        min_lane(&above)
     };
     Cell {
         f1: f1.sqrt(),
@@ -631,6 +652,7 @@ impl NoiseCache {
                     px: [[0.0; 4]; 3],
                     py: [[0.0; 4]; 3],
                     h: [0; CELL_LANES],
+                    min_unit: 0.0,
                 },
             }; CELL_SLOTS],
         }
@@ -683,6 +705,14 @@ impl NoiseCache {
     /// [`cellular2`] with the cell's feature points memoised (bit-identical).
     #[inline]
     pub fn cellular2(&mut self, x: f32, y: f32, seed: u32) -> Cell {
+        let (pts, fx, fy) = self.cell_points_at(x, y, seed);
+        nearest_points(pts, fx, fy)
+    }
+
+    /// The memoised feature points around the lattice cell of `(x, y)` and the position
+    /// within that cell.
+    #[inline(always)]
+    fn cell_points_at(&mut self, x: f32, y: f32, seed: u32) -> (&CellPoints, f32, f32) {
         let xf = x.floor();
         let yf = y.floor();
         let (ix, iy) = (lattice_index(xf), lattice_index(yf));
@@ -694,8 +724,46 @@ impl NoiseCache {
         if entry.key != Some(key) {
             entry.refill(key);
         }
-        nearest_points(&entry.points, x - xf, y - yf)
+        (&entry.points, x - xf, y - yf)
     }
+
+    /// The nearest feature point of [`cellular2`] (`f1` and `id`, bit-identical) when its
+    /// cell's `unit_f32(id)` is at most `max_unit`, else `None`: "is this point in a
+    /// selected cell, and how far inside". A neighbourhood without any cell at or below
+    /// `max_unit` (known from the memo) answers without measuring a distance.
+    #[inline]
+    pub fn nearest_cell_below(
+        &mut self,
+        x: f32,
+        y: f32,
+        seed: u32,
+        max_unit: f32,
+    ) -> Option<Nearest> {
+        let (pts, fx, fy) = self.cell_points_at(x, y, seed);
+        if pts.min_unit > max_unit {
+            return None;
+        }
+        let d = squared_distances(pts, fx, fy);
+        let f1 = min_lane(&d);
+        // The nearest cell is the first lane (row-major) attaining the minimum.
+        let mut equal = 0_u32;
+        for (g, dg) in d.iter().enumerate() {
+            for (l, &v) in dg.iter().enumerate() {
+                equal |= u32::from(v == f1) << (4 * g + l);
+            }
+        }
+        let id = pts.h[(equal.trailing_zeros() as usize).min(CELL_LANES - 1)];
+        (unit_f32(id) <= max_unit).then(|| Nearest { f1: f1.sqrt(), id })
+    }
+}
+
+/// Result of [`NoiseCache::nearest_cell_below`].
+#[derive(Clone, Copy, Debug)]
+pub struct Nearest {
+    /// Distance to the nearest feature point (cell units).
+    pub f1: f32,
+    /// Hash of the nearest feature's cell.
+    pub id: u32,
 }
 
 /// Wavelength of octave `o` relative to the first: `LACUNARITY^-o` (the running product
@@ -885,6 +953,28 @@ mod tests {
         );
         // fbm spans about [-0.5, 0.5]; the interpolation error bound is a few 1e-3.
         assert!(worst < 0.01, "interpolated fbm off by {worst}");
+    }
+
+    /// `nearest_cell_below` is `cellular2`'s nearest point filtered by its cell's unit
+    /// value, bit for bit, including neighbourhoods answered by the memo's least unit.
+    #[test]
+    fn nearest_cell_below_filters_cellular2() {
+        let mut memo = NoiseCache::new();
+        let (mut kept, mut early) = (0, 0);
+        for i in 0..20_000_u32 {
+            let x = (i % 300) as f32 * 0.037 - 3.0;
+            let y = (i / 300) as f32 * 0.041 + 1.0;
+            let seed = i % 5;
+            let max_unit = [0.0, 0.02, 0.1, 0.3, 0.5, 1.0][(i % 6) as usize];
+            let c = cellular2(x, y, seed);
+            let got = memo.nearest_cell_below(x, y, seed, max_unit);
+            let want = (unit_f32(c.id) <= max_unit).then_some((c.f1.to_bits(), c.id));
+            assert_eq!(got.map(|n| (n.f1.to_bits(), n.id)), want, "x {x} y {y}");
+            kept += usize::from(want.is_some());
+            let (ix, iy) = (lattice_index(x.floor()), lattice_index(y.floor()));
+            early += usize::from(cell_points(ix, iy, seed).min_unit > max_unit);
+        }
+        assert!(kept > 1000 && early > 1000, "kept {kept} early {early}");
     }
 
     #[test]

@@ -367,10 +367,9 @@ fn chips(
     if mask <= 0.0 {
         return 0.0;
     }
-    let c = nc.cellular2(u / cell, v / cell, seed ^ 0x1234);
-    if unit_f32(c.id) > mask {
+    let Some(c) = nc.nearest_cell_below(u / cell, v / cell, seed ^ 0x1234, mask) else {
         return 0.0;
-    }
+    };
     // Irregular outline: the cell distance perturbed by fine value noise.
     let radius = 0.2 + 0.3 * unit_f32(hash_u32(c.id));
     let wobble = 0.5 * (outline_noise() - 0.5) * band_weight(0.0012, fp);
