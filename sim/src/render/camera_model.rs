@@ -249,11 +249,26 @@ impl CameraIntrinsics {
     }
 }
 
-/// Per-pixel undistorted normalised coordinates of one camera (row-major).
+/// Unit viewing direction `(x, y, 1) / |(x, y, 1)|` of undistorted normalised coordinates
+/// `xy` (camera frame), with the norm as `((x x + y y) + 1)^(1/2)`: the one expression for
+/// tabulated and interpolated rays, so both give the same bits.
+#[inline(always)]
+#[must_use]
+pub fn unit_direction(xy: [f64; 2]) -> [f64; 3] {
+    let (x, y) = (xy[0], xy[1]);
+    let inv = 1.0 / ((x * x + y * y) + 1.0).sqrt();
+    [x * inv, y * inv, inv]
+}
+
+/// Per-pixel undistorted normalised coordinates of one camera and their unit viewing
+/// directions (row-major).
 #[derive(Clone, Debug)]
 pub struct RayTable {
     intrinsics: CameraIntrinsics,
     xy: Vec<[f64; 2]>,
+    /// [`unit_direction`] of each `xy` (a square root and a division per pixel saved on
+    /// every capture).
+    dirs: Vec<[f64; 3]>,
 }
 
 impl RayTable {
@@ -277,9 +292,11 @@ impl RayTable {
                 }
                 Ok::<(), CameraError>(())
             })?;
+        let dirs = xy.par_iter().map(|&p| unit_direction(p)).collect();
         Ok(Self {
             intrinsics: *intrinsics,
             xy,
+            dirs,
         })
     }
 
@@ -293,6 +310,13 @@ impl RayTable {
     #[must_use]
     pub fn normalized(&self) -> &[[f64; 2]] {
         &self.xy
+    }
+
+    /// Unit camera-frame viewing directions of all pixels (row-major; [`unit_direction`]
+    /// of [`Self::normalized`]).
+    #[must_use]
+    pub fn unit_directions(&self) -> &[[f64; 3]] {
+        &self.dirs
     }
 }
 

@@ -51,7 +51,9 @@ pub mod shading;
 use nalgebra::{Isometry3, Matrix3, Point3, Vector3};
 use rayon::prelude::*;
 
-pub use camera_model::{CameraError, CameraIntrinsics, RayTable, world_from_camera_looking_at};
+pub use camera_model::{
+    CameraError, CameraIntrinsics, RayTable, unit_direction, world_from_camera_looking_at,
+};
 pub use depth_sensor::{DepthSensorParams, depth_to_mm};
 pub use light::LightConditions;
 pub use rgb_sensor::{Exposure, RgbSensorParams};
@@ -236,14 +238,17 @@ struct Cam {
 
 impl Cam {
     /// The world ray through undistorted image coordinates `xy` and the `d_z` of its unit
-    /// camera-frame direction `(x, y, 1) / |(x, y, 1)|`, which is rotated by `r`. Plain
-    /// arithmetic in nalgebra's order (norm `((x x + y y) + 1)^(1/2)`, matrix rows
-    /// `(m0 d0 + m1 d1) + m2 d2`), so a per-pixel loop keeps the matrix in registers.
+    /// camera-frame direction ([`unit_direction`]).
     #[inline(always)]
     fn ray(&self, xy: [f64; 2]) -> (Ray, f64) {
-        let (x, y) = (xy[0], xy[1]);
-        let inv = 1.0 / ((x * x + y * y) + 1.0).sqrt();
-        let d = [x * inv, y * inv, inv];
+        self.ray_along(unit_direction(xy))
+    }
+
+    /// The world ray along the unit camera-frame direction `d` (rotated by `r` in plain
+    /// arithmetic in nalgebra's order, matrix rows `(m0 d0 + m1 d1) + m2 d2`, so a
+    /// per-pixel loop keeps the matrix in registers) and its `d_z`.
+    #[inline(always)]
+    fn ray_along(&self, d: [f64; 3]) -> (Ray, f64) {
         let r = &self.r;
         let row = |m0: f64, m1: f64, m2: f64| (m0 * d[0] + m1 * d[1]) + m2 * d[2];
         (
@@ -255,7 +260,7 @@ impl Cam {
                     row(r.m31, r.m32, r.m33),
                 ),
             },
-            inv,
+            d[2],
         )
     }
 }
@@ -463,6 +468,7 @@ fn render_tile(
     cam: &Cam,
     setup: &LightSetup,
     table: &[[f64; 2]],
+    dirs: &[[f64; 3]],
     band: &Band,
     cols: std::ops::Range<usize>,
     sc: &mut TileScratch,
@@ -476,10 +482,12 @@ fn render_tile(
     for r in 0..band.rows {
         for c in cols.clone() {
             let j = r * w + c;
-            let xy = table.get(band.row0 * w + j).copied().unwrap_or([0.0; 2]);
+            let p = band.row0 * w + j;
+            let xy = table.get(p).copied().unwrap_or([0.0; 2]);
             x_range = grow(x_range, xy[0]);
             y_range = grow(y_range, xy[1]);
-            let (ray, dz) = cam.ray(xy);
+            let d = dirs.get(p).copied().unwrap_or_else(|| unit_direction(xy));
+            let (ray, dz) = cam.ray_along(d);
             sc.rays.push(TileRay {
                 j,
                 col: c as u32,
@@ -500,8 +508,10 @@ fn render_tile(
     if setup.casts_shadows() {
         let (lo, hi) = shadow_origins(&sc.rays);
         if lo[0] <= hi[0] {
-            let beam = shadow_beam(lo, hi, &setup.sun_direction());
+            let sun = setup.sun_direction();
+            let beam = shadow_beam(lo, hi, &sun);
             scene.cull(&beam, lo, hi, CULL_LIMIT, &mut sc.shadow);
+            sc.shadow.share_direction(&sun);
         }
         // Without a hit in the tile no shadow ray is cast (the candidates go unused).
     }
@@ -565,6 +575,7 @@ pub fn render_rgbd_with_rays(
                     &cam,
                     &setup,
                     table,
+                    rays.unit_directions(),
                     &band,
                     cols,
                     &mut scratch,
@@ -877,6 +888,7 @@ mod tests {
                             &cam,
                             &setup,
                             table,
+                            rays.unit_directions(),
                             &band,
                             cols,
                             &mut scratch,

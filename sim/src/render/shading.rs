@@ -188,8 +188,9 @@ pub fn shade_hit(
         cos_i = -cos_i;
     }
     let mat = scene.material(sp.material);
-    let footprint = (hit.t_m * footprint_per_m / cos_i.max(0.2)) as f32;
-    let albedo = mat.albedo_cached(sp.uv_m, sp.face, footprint, noise);
+    // Pixels per metre on the surface (the footprint's reciprocal: one division).
+    let px_per_m = (cos_i.max(0.2) / (hit.t_m * footprint_per_m)) as f32;
+    let albedo = mat.albedo_at_density(sp.uv_m, sp.face, px_per_m, noise);
     let a = [
         f64::from(albedo[0]),
         f64::from(albedo[1]),

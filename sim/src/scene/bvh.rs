@@ -16,7 +16,7 @@
 //! test `|n.c| +- |n|.h`, conservative); the renderer culls once per pixel tile and per
 //! tile's shadow beam, then tests each ray against the few candidates only.
 
-use nalgebra::Point3;
+use nalgebra::{Point3, Vector3};
 
 use super::primitives::{Aabb, BoxFromOrigin, Primitive, Ray};
 
@@ -110,6 +110,9 @@ pub struct Candidates {
     /// When the bundle's rays share one origin: that origin and, per candidate, its
     /// origin-only box-test terms (`None` for non-box shapes).
     shared_origin: Option<(Point3<f64>, Vec<Option<BoxFromOrigin>>)>,
+    /// When the bundle's rays share one direction (shadow rays towards the sun): that
+    /// direction and its f32 reciprocal for the slab tests (see [`Self::share_direction`]).
+    shared_dir: Option<(Vector3<f64>, [f32; 3])>,
     /// More than the limit passed to [`Bvh::cull`] matched: traverse the hierarchy instead.
     overflow: bool,
     /// Movable objects whose world box overlaps the volume (filled by `Scene::cull`).
@@ -133,6 +136,13 @@ impl Candidates {
     #[must_use]
     pub fn overflowed(&self) -> bool {
         self.overflow
+    }
+
+    /// Declares that the bundle's rays share the direction `dir` (until the next cull), so
+    /// any-hit searches take its slab-test reciprocal from here instead of dividing per
+    /// ray (same values: a ray with another direction still computes its own).
+    pub fn share_direction(&mut self, dir: &Vector3<f64>) {
+        self.shared_dir = Some((*dir, f32_ray_inverse(dir)));
     }
 }
 
@@ -285,6 +295,7 @@ impl Bvh {
     ) {
         out.boxes.clear();
         out.shared_origin = None;
+        out.shared_dir = None;
         out.overflow = false;
         if self.nodes.is_empty() {
             return;
@@ -457,7 +468,10 @@ impl Bvh {
         if cands.overflow {
             return self.occluder(ray, t_min, t_max);
         }
-        let (o, inv) = f32_ray(ray);
+        let (o, inv) = match &cands.shared_dir {
+            Some((dir, inv)) if *dir == ray.dir => (f32_origin(ray), *inv),
+            _ => f32_ray(ray),
+        };
         let t_hi = t_max as f32;
         cands.boxes.iter().find_map(|(_, c)| {
             c.hit(&o, &inv, t_hi)?;
@@ -569,18 +583,27 @@ impl CandidateTest<'_> {
 /// Ray origin and inverse direction in f32 for the node slab tests.
 #[inline]
 fn f32_ray(ray: &Ray) -> ([f32; 3], [f32; 3]) {
-    (
-        [
-            ray.origin.x as f32,
-            ray.origin.y as f32,
-            ray.origin.z as f32,
-        ],
-        [
-            (1.0 / ray.dir.x) as f32,
-            (1.0 / ray.dir.y) as f32,
-            (1.0 / ray.dir.z) as f32,
-        ],
-    )
+    (f32_origin(ray), f32_ray_inverse(&ray.dir))
+}
+
+/// Ray origin in f32 for the node slab tests.
+#[inline]
+fn f32_origin(ray: &Ray) -> [f32; 3] {
+    [
+        ray.origin.x as f32,
+        ray.origin.y as f32,
+        ray.origin.z as f32,
+    ]
+}
+
+/// Inverse ray direction in f32 for the node slab tests.
+#[inline]
+fn f32_ray_inverse(dir: &Vector3<f64>) -> [f32; 3] {
+    [
+        (1.0 / dir.x) as f32,
+        (1.0 / dir.y) as f32,
+        (1.0 / dir.z) as f32,
+    ]
 }
 
 struct BuildCtx<'a> {

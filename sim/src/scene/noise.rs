@@ -150,12 +150,13 @@ pub fn value2(x: f32, y: f32, seed: u32) -> f32 {
     ab + (cd - ab) * ty
 }
 
-/// Band-limit weight of a feature of wavelength `wavelength_m` seen with pixel footprint
-/// `footprint_m`: 1 when the feature spans >= 4 pixels, 0 below 2 pixels, linear between.
+/// Band-limit weight of a feature of wavelength `wavelength_m` seen at `px_per_m` pixels
+/// per metre of surface (the reciprocal of the pixel footprint): 1 when the feature spans
+/// >= 4 pixels, 0 below 2 pixels, linear between.
 #[inline]
 #[must_use]
-pub fn band_weight(wavelength_m: f32, footprint_m: f32) -> f32 {
-    ((wavelength_m / footprint_m.max(1e-9) - 2.0) * 0.5).clamp(0.0, 1.0)
+pub fn band_weight(wavelength_m: f32, px_per_m: f32) -> f32 {
+    ((wavelength_m * px_per_m - 2.0) * 0.5).clamp(0.0, 1.0)
 }
 
 /// Frequency ratio of successive fbm octaves.
@@ -181,7 +182,8 @@ const FBM_LANES_SMALL: usize = 4;
 const FBM_LANES_WIDE: usize = 8;
 
 /// Fractal value noise in roughly [-0.5, 0.5]: `sum_o gain^o (value2(2.13^o p / scale) - 0.5)`,
-/// normalised by the sum of weights, octaves below the pixel footprint faded out.
+/// normalised by the sum of weights, octaves shorter than two pixels (at `px_per_m` pixels
+/// per metre) faded out.
 ///
 /// The octaves are independent value-noise lookups, so they are evaluated side by side in
 /// lanes (`[f32; N]` arrays the compiler maps to SSE vectors: floor, lattice hash, fade
@@ -189,17 +191,17 @@ const FBM_LANES_WIDE: usize = 8;
 /// so the result equals the octave-by-octave loop bit for bit.
 #[inline(always)]
 #[must_use]
-pub fn fbm2(x: f32, y: f32, scale_m: f32, octaves: u32, footprint_m: f32, seed: u32) -> f32 {
+pub fn fbm2(x: f32, y: f32, scale_m: f32, octaves: u32, px_per_m: f32, seed: u32) -> f32 {
     let mut acc = FbmAcc {
         freq: 1.0 / scale_m,
-        // Octave wavelength in pixel footprints (the band_weight argument, without divisions).
-        wavelength_px: scale_m / footprint_m.max(1e-9),
+        // Octave wavelength in pixels (the band_weight argument).
+        wavelength_px: scale_m * px_per_m,
         amp: 1.0,
         sum: 0.0,
         norm: 0.0,
     };
     if octaves as usize <= FBM_LANES_SMALL {
-        let plan = FbmPlan::new(x, y, scale_m, octaves, footprint_m, seed);
+        let plan = FbmPlan::new(x, y, scale_m, octaves, px_per_m, seed);
         return plan.finish(value2_lanes(plan.x, plan.y, plan.seed));
     } else {
         let mut o = 0;
@@ -289,13 +291,13 @@ pub struct FbmPlan {
 }
 
 impl FbmPlan {
-    /// Plans `fbm2(x, y, scale_m, octaves.min(4), footprint_m, seed)`.
+    /// Plans `fbm2(x, y, scale_m, octaves.min(4), px_per_m, seed)`.
     #[inline(always)]
     #[must_use]
-    pub fn new(x: f32, y: f32, scale_m: f32, octaves: u32, footprint_m: f32, seed: u32) -> Self {
+    pub fn new(x: f32, y: f32, scale_m: f32, octaves: u32, px_per_m: f32, seed: u32) -> Self {
         let mut acc = FbmAcc {
             freq: 1.0 / scale_m,
-            wavelength_px: scale_m / footprint_m.max(1e-9),
+            wavelength_px: scale_m * px_per_m,
             amp: 1.0,
             sum: 0.0,
             norm: 0.0,
@@ -596,7 +598,7 @@ struct CellSlot {
 
 impl SmoothSlot {
     /// Evaluates the cell with lower-left grid node `node` (grid step `step_m`), all octaves
-    /// in band (footprint 0). Out of line: the rare miss stays off the hot path.
+    /// in band (infinite pixel density). Out of line: the rare miss stays off the hot path.
     #[cold]
     #[inline(never)]
     fn refill(
@@ -608,7 +610,16 @@ impl SmoothSlot {
         octaves: u32,
         seed: u32,
     ) {
-        let at = |i: f32, j: f32| fbm2(i * step_m, j * step_m, scale_m, octaves, 0.0, seed);
+        let at = |i: f32, j: f32| {
+            fbm2(
+                i * step_m,
+                j * step_m,
+                scale_m,
+                octaves,
+                f32::INFINITY,
+                seed,
+            )
+        };
         let [xf, yf] = node;
         self.corners = [
             at(xf, yf),
@@ -667,7 +678,7 @@ impl NoiseCache {
         y: f32,
         scale_m: f32,
         octaves: u32,
-        footprint_m: f32,
+        px_per_m: f32,
         seed: u32,
     ) -> f32 {
         let Some(finest_m) = octaves
@@ -675,15 +686,16 @@ impl NoiseCache {
             .and_then(|o| FINEST_WAVELENGTH.get(o as usize))
             .map(|k| scale_m * k)
         else {
-            return fbm2(x, y, scale_m, octaves, footprint_m, seed);
+            return fbm2(x, y, scale_m, octaves, px_per_m, seed);
         };
-        // (A NaN footprint also takes the direct path.)
-        let smooth = finest_m >= SMOOTH_MIN_WAVELENGTH_PX * footprint_m;
+        // (A NaN density also takes the direct path.)
+        let smooth = finest_m * px_per_m >= SMOOTH_MIN_WAVELENGTH_PX;
         if !smooth {
-            return fbm2(x, y, scale_m, octaves, footprint_m, seed);
+            return fbm2(x, y, scale_m, octaves, px_per_m, seed);
         }
         let step_m = finest_m * (1.0 / SMOOTH_SAMPLES_PER_WAVELENGTH);
-        let (gx, gy) = (x / step_m, y / step_m);
+        let inv_step = 1.0 / step_m;
+        let (gx, gy) = (x * inv_step, y * inv_step);
         let (xf, yf) = (gx.floor(), gy.floor());
         let (tx, ty) = (gx - xf, gy - yf);
         let (ix, iy) = (lattice_index(xf), lattice_index(yf));
@@ -791,12 +803,11 @@ fn jitter16(h: u32) -> f32 {
 }
 
 /// Antialiased step: 0 below `edge - w/2`, 1 above `edge + w/2`, linear in between, where
-/// `w` is the pixel footprint in the same units as `x`.
+/// `w = 1 / px_per_unit` is one pixel in the units of `x`.
 #[inline]
 #[must_use]
-pub fn aa_step(edge: f32, x: f32, w: f32) -> f32 {
-    let w = w.max(1e-9);
-    ((x - edge) / w + 0.5).clamp(0.0, 1.0)
+pub fn aa_step(edge: f32, x: f32, px_per_unit: f32) -> f32 {
+    ((x - edge) * px_per_unit + 0.5).clamp(0.0, 1.0)
 }
 
 #[cfg(test)]
@@ -845,9 +856,9 @@ mod tests {
     }
 
     /// The sequential definitions the lane versions must reproduce bit for bit.
-    fn fbm2_sequential(x: f32, y: f32, scale_m: f32, octaves: u32, fp: f32, seed: u32) -> f32 {
+    fn fbm2_sequential(x: f32, y: f32, scale_m: f32, octaves: u32, ppm: f32, seed: u32) -> f32 {
         let mut freq = 1.0 / scale_m;
-        let mut wavelength_px = scale_m / fp.max(1e-9);
+        let mut wavelength_px = scale_m * ppm;
         let (mut amp, mut sum, mut norm) = (1.0, 0.0, 0.0);
         for o in 0..octaves {
             let w = ((wavelength_px - 2.0) * 0.5).clamp(0.0, 1.0);
@@ -897,14 +908,14 @@ mod tests {
             let y = (i as f32 * 0.414_214).fract() * 2.0 - 0.7 - (i / 131) as f32 * 7.1;
             // Footprints from far below to far above the octave wavelengths, so every
             // band-limit cut-off (0 .. all octaves) occurs.
-            let fp = 1e-5 * 1.7_f32.powi((i % 23) as i32);
+            let ppm = 1e5 / 1.7_f32.powi((i % 23) as i32);
             for octaves in 0..=10 {
-                let a = fbm2(x, y, 0.3, octaves, fp, i);
-                let b = fbm2_sequential(x, y, 0.3, octaves, fp, i);
+                let a = fbm2(x, y, 0.3, octaves, ppm, i);
+                let b = fbm2_sequential(x, y, 0.3, octaves, ppm, i);
                 assert_eq!(
                     a.to_bits(),
                     b.to_bits(),
-                    "fbm x {x} y {y} o {octaves} fp {fp}"
+                    "fbm x {x} y {y} o {octaves} ppm {ppm}"
                 );
             }
             let (c, r) = (cellular2(x, y, i), cellular2_sequential(x, y, i));
@@ -926,14 +937,14 @@ mod tests {
             let x = (i % 200) as f32 * 0.000_31 + (i / 4000) as f32 * 0.7;
             let y = ((i / 200) % 20) as f32 * 0.000_29 - 0.3;
             let seed = i % 3;
-            let fp = [0.000_1, 0.000_3, 0.003][(i % 7 % 3) as usize];
+            let ppm = [10_000.0, 3_333.3, 333.3][(i % 7 % 3) as usize];
             for (scale, octaves) in [(0.3, 3), (0.12, 2), (0.012, 2), (0.06, 5)] {
-                let a = shared.fbm2(x, y, scale, octaves, fp, seed);
-                let b = NoiseCache::new().fbm2(x, y, scale, octaves, fp, seed);
+                let a = shared.fbm2(x, y, scale, octaves, ppm, seed);
+                let b = NoiseCache::new().fbm2(x, y, scale, octaves, ppm, seed);
                 assert_eq!(a.to_bits(), b.to_bits(), "memo state leaked into fbm");
-                let exact = fbm2(x, y, scale, octaves, fp, seed);
+                let exact = fbm2(x, y, scale, octaves, ppm, seed);
                 let finest = scale / LACUNARITY.powi(octaves as i32 - 1);
-                if finest >= SMOOTH_MIN_WAVELENGTH_PX * fp {
+                if finest * ppm >= SMOOTH_MIN_WAVELENGTH_PX {
                     smooth += 1;
                     worst = worst.max((a - exact).abs());
                 } else {

@@ -5,8 +5,9 @@
 //! a pure function of `(uv, face, material seed)`, built from hashed value noise, fbm and
 //! cellular noise ([`super::noise`]).
 //!
-//! Antialiasing: each call receives the pixel footprint `w` (metres on the surface). Features
-//! of wavelength below `2 w` fade to their mean colour ([`band_weight`]) and hard edges are
+//! Antialiasing: each call receives the pixel footprint `w` (metres on the surface), as its
+//! reciprocal, the pixel density `1 / w` ([`Material::albedo_at_density`]). Features of
+//! wavelength below `2 w` fade to their mean colour ([`band_weight`]) and hard edges are
 //! ramps of width `w` ([`aa_step`]), so a single sample per pixel does not alias (the
 //! renderer supersamples geometric edges separately).
 //!
@@ -14,7 +15,9 @@
 //! low-frequency fbm (finest octave >= 64 pixel footprints) is interpolated from a grid of 8
 //! samples per finest wavelength, a pure function of `uv` like the rest, and cellular
 //! feature points are hashed once per cell; the bolted panel evaluates its per-pixel value
-//! noise in one 4-lane batch.
+//! noise in one 4-lane batch. Band limits, ramps and texture coordinates multiply by
+//! densities and reciprocal sizes instead of dividing: a texel costs a dozen fewer
+//! divisions, which on this CPU take several times a multiplication's issue slots.
 //!
 //! Corner content at the wrist working distance (0.3-0.6 m, one pixel ~ 0.17-0.34 mm with
 //! fx = 1745 px): gravel stones (5-25 mm), bolt heads, text-like glyph blocks (2-4 mm),
@@ -179,48 +182,63 @@ impl Material {
         footprint_m: f32,
         nc: &mut NoiseCache,
     ) -> [f32; 3] {
+        self.albedo_at_density(uv_m, face, 1.0 / footprint_m.max(MIN_FOOTPRINT_M), nc)
+    }
+
+    /// [`Self::albedo_cached`] given the pixel density `px_per_m` (pixels per metre on the
+    /// surface, the reciprocal of the footprint; at most `1 / 10 um`), which band limits and
+    /// edge ramps multiply by.
+    #[must_use]
+    pub fn albedo_at_density(
+        &self,
+        uv_m: [f64; 2],
+        face: u8,
+        px_per_m: f32,
+        nc: &mut NoiseCache,
+    ) -> [f32; 3] {
         // Keep f32 precision: textures repeat every 4096 m, far beyond the scene.
         let u = wrap(uv_m[0], TEXTURE_PERIOD_M) as f32;
         let v = wrap(uv_m[1], TEXTURE_PERIOD_M) as f32;
-        let fp = footprint_m.max(1e-5);
+        // (A NaN density becomes the finest.)
+        let ppm = px_per_m.min(1.0 / MIN_FOOTPRINT_M);
         let seed = hash_u32(self.seed ^ (u32::from(face) << 24));
         let b = self.base_rgb;
         let a = self.accent_rgb;
         match self.texture {
             Texture::Uniform => b,
-            Texture::Painted { grime, rust } => painted(nc, b, u, v, fp, seed, grime, rust),
+            Texture::Painted { grime, rust } => painted(nc, b, u, v, ppm, seed, grime, rust),
             Texture::Galvanized => {
-                let w = band_weight(0.008, fp);
-                let c = nc.cellular2(u / 0.008, v / 0.008, seed);
+                let w = band_weight(0.008, ppm);
+                let c = nc.cellular2(u * (1.0 / 0.008), v * (1.0 / 0.008), seed);
                 let grain = 0.88
                     + 0.24 * unit_f32(c.id) * w
-                    + 0.1 * aa_step(0.06, c.f2 - c.f1, fp / 0.008) * w;
-                let mottle = 1.0 + 0.35 * nc.fbm2(u, v, 0.25, 3, fp, seed ^ 0x55);
+                    + 0.1 * aa_step(0.06, c.f2 - c.f1, ppm * 0.008) * w;
+                let mottle = 1.0 + 0.35 * nc.fbm2(u, v, 0.25, 3, ppm, seed ^ 0x55);
                 scale(b, grain * mottle)
             }
-            Texture::Gravel { stone_m } => gravel(nc, b, a, u, v, fp, seed, stone_m),
+            Texture::Gravel { stone_m } => gravel(nc, b, a, u, v, ppm, seed, stone_m),
             Texture::Concrete => {
-                let tone = 1.0 + 0.45 * nc.fbm2(u, v, 0.35, 5, fp, seed);
-                let c = nc.cellular2(u / 0.004, v / 0.004, seed ^ 0x77);
+                let tone = 1.0 + 0.45 * nc.fbm2(u, v, 0.35, 5, ppm, seed);
+                let c = nc.cellular2(u * (1.0 / 0.004), v * (1.0 / 0.004), seed ^ 0x77);
                 let pore =
-                    1.0 - 0.5 * (1.0 - aa_step(0.18, c.f1, fp / 0.004)) * band_weight(0.004, fp);
-                let seam_d = ((u / 1.2).fract() - 0.5).abs() * 1.2;
-                let seam = 1.0 - 0.4 * (1.0 - aa_step(0.002, 0.6 - seam_d, fp));
+                    1.0 - 0.5 * (1.0 - aa_step(0.18, c.f1, ppm * 0.004)) * band_weight(0.004, ppm);
+                let seam_d = ((u * (1.0 / 1.2)).fract() - 0.5).abs() * 1.2;
+                let seam = 1.0 - 0.4 * (1.0 - aa_step(0.002, 0.6 - seam_d, ppm));
                 scale(b, tone * pore * seam)
             }
             Texture::BoltedPanel {
                 pitch_m,
                 bolt_radius_m,
-            } => bolted(nc, b, u, v, fp, seed, pitch_m, bolt_radius_m),
-            Texture::Label { glyph_m } => label(nc, b, a, u, v, fp, seed, glyph_m),
+            } => bolted(nc, b, u, v, ppm, seed, pitch_m, bolt_radius_m),
+            Texture::Label { glyph_m } => label(nc, b, a, u, v, ppm, seed, glyph_m),
             Texture::Louvres { pitch_m } => {
                 let f = fract01(v / pitch_m);
-                let w = band_weight(pitch_m, fp);
+                let w = band_weight(pitch_m, ppm);
                 let slat = 0.7 + 0.45 * f / 0.75;
-                let gap = aa_step(0.75, f, fp / pitch_m);
+                let gap = aa_step(0.75, f, ppm * pitch_m);
                 let detail = slat * (1.0 - gap) + 0.12 * gap;
                 let mean = 0.72;
-                let g = 1.0 + 0.15 * nc.fbm2(u, v, 0.3, 3, fp, seed);
+                let g = 1.0 + 0.15 * nc.fbm2(u, v, 0.3, 3, ppm, seed);
                 scale(b, (w * detail + (1.0 - w) * mean) * g)
             }
             Texture::CableTray { slot_pitch_m } => {
@@ -231,45 +249,49 @@ impl Material {
                 let dx = ((fu - 0.5).abs() - 0.3).max(0.0);
                 let dy = ((fv - 0.5).abs() - 0.15).max(0.0);
                 let d_m = ((dx * dx + dy * dy).sqrt() - 0.06) * p * 0.5;
-                let hole = 1.0 - aa_step(0.0, d_m, fp);
-                let w = band_weight(0.5 * p, fp);
-                let m = 1.0 + 0.25 * nc.fbm2(u, v, 0.2, 3, fp, seed);
+                let hole = 1.0 - aa_step(0.0, d_m, ppm);
+                let w = band_weight(0.5 * p, ppm);
+                let m = 1.0 + 0.25 * nc.fbm2(u, v, 0.2, 3, ppm, seed);
                 let c = scale(b, m);
                 mix(c, scale(c, 0.08), hole * w + 0.15 * (1.0 - w))
             }
             Texture::Porcelain => {
-                let g = 1.0 + 0.12 * nc.fbm2(u, v, 0.05, 4, fp, seed);
-                let dirt = 1.0 - 0.25 * (nc.fbm2(u, v, 0.3, 3, fp, seed ^ 9) + 0.5).clamp(0.0, 1.0);
+                let g = 1.0 + 0.12 * nc.fbm2(u, v, 0.05, 4, ppm, seed);
+                let dirt =
+                    1.0 - 0.25 * (nc.fbm2(u, v, 0.3, 3, ppm, seed ^ 9) + 0.5).clamp(0.0, 1.0);
                 scale(b, g * dirt)
             }
             Texture::Strands { pitch_m } => {
                 let (s, c) = 0.26_f32.sin_cos();
                 let f = fract01((u * c + v * s) / pitch_m);
-                let w = band_weight(pitch_m, fp);
+                let w = band_weight(pitch_m, ppm);
                 let round = 0.55 + 0.5 * (std::f32::consts::PI * f).sin();
                 let strand = w * round + (1.0 - w) * 0.87;
-                let grime = 1.0 + 0.5 * nc.fbm2(u * 0.3, v, 0.15, 5, fp, seed);
+                let grime = 1.0 + 0.5 * nc.fbm2(u * 0.3, v, 0.15, 5, ppm, seed);
                 scale(b, strand * grime)
             }
             Texture::Hazard { pitch_m } => {
                 let f = fract01((u + v) / pitch_m);
-                let t = aa_step(0.5, f, fp / pitch_m) * (1.0 - aa_step(0.98, f, fp / pitch_m));
-                let w = band_weight(pitch_m, fp);
-                let wear = 1.0 + 0.3 * nc.fbm2(u, v, 0.05, 4, fp, seed);
+                let t = aa_step(0.5, f, ppm * pitch_m) * (1.0 - aa_step(0.98, f, ppm * pitch_m));
+                let w = band_weight(pitch_m, ppm);
+                let wear = 1.0 + 0.3 * nc.fbm2(u, v, 0.05, 4, ppm, seed);
                 scale(mix(b, a, w * t + (1.0 - w) * 0.5), wear)
             }
             Texture::Rubber { pitch_m } => {
                 let fa = fract01((u + v) / pitch_m);
                 let fb = fract01((u - v) / pitch_m);
                 let d = fa.min(1.0 - fa).min(fb).min(1.0 - fb) * pitch_m;
-                let w = band_weight(pitch_m, fp);
+                let w = band_weight(pitch_m, ppm);
                 let groove =
-                    1.0 - 0.55 * (1.0 - aa_step(0.12 * pitch_m, d, fp)) * w - 0.1 * (1.0 - w);
+                    1.0 - 0.55 * (1.0 - aa_step(0.12 * pitch_m, d, ppm)) * w - 0.1 * (1.0 - w);
                 scale(b, groove)
             }
         }
     }
 }
+
+/// Smallest pixel footprint textures resolve (m).
+pub const MIN_FOOTPRINT_M: f32 = 1e-5;
 
 /// Period of all textures (m): coordinates are wrapped to keep f32 precision.
 const TEXTURE_PERIOD_M: f64 = 4096.0;
@@ -317,27 +339,33 @@ fn painted(
     b: [f32; 3],
     u: f32,
     v: f32,
-    fp: f32,
+    ppm: f32,
     seed: u32,
     grime: f32,
     rust: f32,
 ) -> [f32; 3] {
-    let g = 1.0 + 2.0 * grime * nc.fbm2(u, v, 0.5, 3, fp, seed);
+    let g = 1.0 + 2.0 * grime * nc.fbm2(u, v, 0.5, 3, ppm, seed);
     let mut c = scale(b, g);
     if rust > 0.0 {
         // Stains stretched vertically (run-off), threshold on fbm; dark rims give corners.
-        let s = nc.fbm2(u * 1.6, v * 0.6, 0.06, 5, fp, seed ^ 0xabc) + 0.5;
+        let s = nc.fbm2(u * 1.6, v * 0.6, 0.06, 5, ppm, seed ^ 0xabc) + 0.5;
         let th = 0.5 + 0.3 * (1.0 - rust);
-        let inside = aa_step(th, s, 0.02 + fp * 3.0);
-        let rim = (1.0 - ((s - th).abs() / 0.015)).clamp(0.0, 1.0) * band_weight(0.004, fp);
-        let fine = 0.75 + 0.5 * value2(u / 0.003, v / 0.003, seed) * band_weight(0.003, fp);
+        let inside = aa_step(th, s, 1.0 / (0.02 + 3.0 / ppm));
+        let rim =
+            (1.0 - ((s - th).abs() * (1.0 / 0.015))).clamp(0.0, 1.0) * band_weight(0.004, ppm);
+        let fine = 0.75
+            + 0.5 * value2(u * (1.0 / 0.003), v * (1.0 / 0.003), seed) * band_weight(0.003, ppm);
         c = mix(c, scale(RUST_RGB, fine), inside);
         c = scale(c, 1.0 - 0.45 * rim);
         c = mix(
             c,
             scale(RUST_RGB, 0.7),
-            chips(nc, u, v, fp, seed ^ 0x77, rust, || {
-                value2(u / CHIP_OUTLINE_M, v / CHIP_OUTLINE_M, seed ^ 0x77 ^ 0x9999)
+            chips(nc, u, v, ppm, seed ^ 0x77, rust, || {
+                value2(
+                    u * (1.0 / CHIP_OUTLINE_M),
+                    v * (1.0 / CHIP_OUTLINE_M),
+                    seed ^ 0x77 ^ 0x9999,
+                )
             }),
         );
     }
@@ -353,27 +381,28 @@ fn chips(
     nc: &mut NoiseCache,
     u: f32,
     v: f32,
-    fp: f32,
+    ppm: f32,
     seed: u32,
     amount: f32,
     outline_noise: impl FnOnce() -> f32,
 ) -> f32 {
     let cell = 0.005;
-    let w = band_weight(cell, fp);
+    let w = band_weight(cell, ppm);
     if w <= 0.0 || amount <= 0.0 {
         return 0.0;
     }
-    let mask = ((nc.fbm2(u, v, 0.12, 2, fp, seed) + 0.5 - 0.5) * 5.0).clamp(0.0, 1.0) * amount;
+    let mask = ((nc.fbm2(u, v, 0.12, 2, ppm, seed) + 0.5 - 0.5) * 5.0).clamp(0.0, 1.0) * amount;
     if mask <= 0.0 {
         return 0.0;
     }
-    let Some(c) = nc.nearest_cell_below(u / cell, v / cell, seed ^ 0x1234, mask) else {
+    let Some(c) = nc.nearest_cell_below(u * (1.0 / cell), v * (1.0 / cell), seed ^ 0x1234, mask)
+    else {
         return 0.0;
     };
     // Irregular outline: the cell distance perturbed by fine value noise.
     let radius = 0.2 + 0.3 * unit_f32(hash_u32(c.id));
-    let wobble = 0.5 * (outline_noise() - 0.5) * band_weight(0.0012, fp);
-    w * 0.85 * (1.0 - aa_step(radius, c.f1 + wobble, fp / cell))
+    let wobble = 0.5 * (outline_noise() - 0.5) * band_weight(0.0012, ppm);
+    w * 0.85 * (1.0 - aa_step(radius, c.f1 + wobble, ppm * cell))
 }
 
 // Texture parameters are plain scalars next to the memo; a struct would only rename them.
@@ -384,24 +413,24 @@ fn gravel(
     a: [f32; 3],
     u: f32,
     v: f32,
-    fp: f32,
+    ppm: f32,
     seed: u32,
     stone_m: f32,
 ) -> [f32; 3] {
-    let w = band_weight(stone_m, fp);
+    let w = band_weight(stone_m, ppm);
     let mean = scale(mix(b, a, 0.5), 0.85);
     if w <= 0.0 {
-        let t = 1.0 + 0.3 * nc.fbm2(u, v, 1.5, 3, fp, seed);
+        let t = 1.0 + 0.3 * nc.fbm2(u, v, 1.5, 3, ppm, seed);
         return scale(mean, t);
     }
     let c = nc.cellular2(u / stone_m, v / stone_m, seed);
     let h = c.id;
     let tone = 0.6 + 0.8 * unit_f32(hash_u32(h));
     let stone = scale(mix(b, a, unit_f32(h)), tone);
-    let gap = 1.0 - aa_step(0.1, c.f2 - c.f1, fp / stone_m);
-    let speck = 1.0 + 0.4 * nc.fbm2(u, v, stone_m * 0.3, 3, fp, seed ^ 3);
+    let gap = 1.0 - aa_step(0.1, c.f2 - c.f1, ppm * stone_m);
+    let speck = 1.0 + 0.4 * nc.fbm2(u, v, stone_m * 0.3, 3, ppm, seed ^ 3);
     let detail = scale(mix(stone, scale(stone, 0.25), gap), speck);
-    let large = 1.0 + 0.25 * nc.fbm2(u, v, 1.5, 3, fp, seed ^ 5);
+    let large = 1.0 + 0.25 * nc.fbm2(u, v, 1.5, 3, ppm, seed ^ 5);
     scale(mix(mean, detail, w), large)
 }
 
@@ -412,23 +441,29 @@ fn bolted(
     b: [f32; 3],
     u: f32,
     v: f32,
-    fp: f32,
+    ppm: f32,
     seed: u32,
     pitch: f32,
     r: f32,
 ) -> [f32; 3] {
+    // Reciprocals once: the per-pixel divisions below become multiplications.
+    let inv_pitch = 1.0 / pitch;
+    let inv_r = 1.0 / r;
     let wp = pitch * 5.0;
     let hp = pitch * 4.0;
-    let (pi, pj) = ((u / wp).floor() as i32, (v / hp).floor() as i32);
+    let (pi, pj) = (
+        (u * (0.2 * inv_pitch)).floor() as i32,
+        (v * (0.25 * inv_pitch)).floor() as i32,
+    );
     let (pu, pv) = (u - pi as f32 * wp, v - pj as f32 * hp);
     let margin = 0.5 * pitch;
     // Panel tone, seams.
     let tone = 0.85 + 0.3 * unit_f32(hash2(pi, pj, seed));
     let seam_d = pu.min(wp - pu).min(pv).min(hp - pv);
-    let seam = 0.25 + 0.75 * aa_step(0.0015, seam_d, fp);
+    let seam = 0.25 + 0.75 * aa_step(0.0015, seam_d, ppm);
     // Nearest bolt on the border rows/columns.
     let snap = |x: f32, len: f32| {
-        (margin + ((x - margin) / pitch).round() * pitch).clamp(margin, len - margin)
+        (margin + ((x - margin) * inv_pitch).round() * pitch).clamp(margin, len - margin)
     };
     let row_v = if pv < hp * 0.5 { margin } else { hp - margin };
     let col_u = if pu < wp * 0.5 { margin } else { wp - margin };
@@ -441,20 +476,20 @@ fn bolted(
     // Every per-pixel value-noise lookup of the panel in one 4-lane batch: the two octaves
     // of the 12 mm grime, the streak modulation and the chip outline (each lane equals its
     // own `value2`, so this is only faster).
-    let grime = FbmPlan::new(u, v, 0.012, 2, fp, seed ^ 2);
+    let grime = FbmPlan::new(u, v, 0.012, 2, ppm, seed ^ 2);
     let chip_seed = seed ^ 0x3c3c;
     let mut lanes = grime;
-    lanes.x[2] = u / 0.004;
-    lanes.y[2] = v / 0.02;
+    lanes.x[2] = u * (1.0 / 0.004);
+    lanes.y[2] = v * (1.0 / 0.02);
     lanes.seed[2] = seed;
-    lanes.x[3] = u / CHIP_OUTLINE_M;
-    lanes.y[3] = v / CHIP_OUTLINE_M;
+    lanes.x[3] = u * (1.0 / CHIP_OUTLINE_M);
+    lanes.y[3] = v * (1.0 / CHIP_OUTLINE_M);
     lanes.seed[3] = chip_seed ^ 0x9999;
     let noise = value2_lanes(lanes.x, lanes.y, lanes.seed);
     let mut k = tone
         * seam
-        * (1.0 + 0.12 * nc.fbm2(u, v, 0.3, 3, fp, seed ^ 1) + 0.16 * grime.finish(noise));
-    let wb = band_weight(2.0 * r, fp);
+        * (1.0 + 0.12 * nc.fbm2(u, v, 0.3, 3, ppm, seed ^ 1) + 0.16 * grime.finish(noise));
+    let wb = band_weight(2.0 * r, ppm);
     // Rust streaks run down (-v) from the top-row bolts and from the side-column bolts above
     // the point; each bolt bleeds with its own strength `s_b` and profile
     // `exp(-|du| / 0.6 r + dv / 14 r)`, modulated by one streaky noise
@@ -467,7 +502,7 @@ fn bolted(
         if dv >= 0.0 || du.abs() > 4.0 * r || dv < -60.0 * r {
             return 0.0;
         }
-        let exponent = dv / (14.0 * r) - du.abs() / (0.6 * r);
+        let exponent = dv * ((1.0 / 14.0) * inv_r) - du.abs() * ((1.0 / 0.6) * inv_r);
         if exponent < -STREAK_MIN_EXPONENT {
             return 0.0;
         }
@@ -475,10 +510,12 @@ fn bolted(
     };
     let rust_t = if wb > 0.0 {
         let top_u = snap(pu, wp);
-        let above = (margin + ((pv - margin) / pitch).ceil() * pitch).min(hp - margin);
-        let s1 = streak(pu - top_u, pv - (hp - margin), &|| (top_u / pitch) as i32);
+        let above = (margin + ((pv - margin) * inv_pitch).ceil() * pitch).min(hp - margin);
+        let s1 = streak(pu - top_u, pv - (hp - margin), &|| {
+            (top_u * inv_pitch) as i32
+        });
         let s2 = streak(pu - col_u, pv - above, &|| {
-            1000 + (above / pitch) as i32 + (col_u / pitch) as i32 * 7
+            1000 + (above * inv_pitch) as i32 + (col_u * inv_pitch) as i32 * 7
         });
         let s = s1.max(s2);
         let s = if s > 0.0 {
@@ -490,15 +527,15 @@ fn bolted(
     } else {
         0.0
     };
-    let chip = chips(nc, u, v, fp, chip_seed, 0.5, || noise[3]);
+    let chip = chips(nc, u, v, ppm, chip_seed, 0.5, || noise[3]);
     let mut c = mix(scale(b, k), RUST_RGB, rust_t);
     c = mix(c, [0.07, 0.07, 0.065], chip);
     if d < 1.4 * r {
         // Washer ring, then a domed head lit from the upper left.
-        let head = 1.0 - aa_step(r * 0.75, d, fp);
-        let washer = 1.0 - aa_step(r, d, fp);
+        let head = 1.0 - aa_step(r * 0.75, d, ppm);
+        let washer = 1.0 - aa_step(r, d, ppm);
         let lit = 1.0 + 0.8 * ((-du + dv) / (r * 1.414)).clamp(-1.0, 1.0);
-        let rim = 1.0 - 0.6 * (1.0 - aa_step(0.0, (d - r * 0.78).abs() - r * 0.05, fp));
+        let rim = 1.0 - 0.6 * (1.0 - aa_step(0.0, (d - r * 0.78).abs() - r * 0.05, ppm));
         k = 1.0 + (washer * 0.9 - washer) + head * (lit - 1.0) * 0.8;
         let bolt = scale(scale(b, k * rim), 1.0);
         c = mix(c, bolt, washer * wb);
@@ -514,7 +551,7 @@ fn label(
     a: [f32; 3],
     u: f32,
     v: f32,
-    fp: f32,
+    ppm: f32,
     seed: u32,
     glyph: f32,
 ) -> [f32; 3] {
@@ -529,8 +566,8 @@ fn label(
     let blank_row = rh.is_multiple_of(5);
     let gh = hash2(col, row, seed ^ 0xfeed);
     let space = gh.is_multiple_of(6);
-    let w = band_weight(glyph * 0.2, fp);
-    let base_tone = 1.0 + 0.08 * nc.fbm2(u, v, 0.1, 3, fp, seed);
+    let w = band_weight(glyph * 0.2, ppm);
+    let base_tone = 1.0 + 0.08 * nc.fbm2(u, v, 0.1, 3, ppm, seed);
     let plate = scale(b, base_tone);
     if blank_row || space || col < 1 || col > len {
         return plate;
@@ -564,7 +601,7 @@ fn label(
     if !on(bi, bj + 1) {
         d = d.min((1.0 - by) * bh);
     }
-    let ink = aa_step(0.0, d, fp);
+    let ink = aa_step(0.0, d, ppm);
     mix(plate, a, w * ink + 0.3 * (1.0 - w))
 }
 
