@@ -170,6 +170,28 @@ pub struct Ground {
     pub material: MaterialId,
 }
 
+impl Ground {
+    /// Distance `t = (h - o_z) / d_z` to the plane along `ray` if it lies in
+    /// `(t_min, t_max)`. With `t_min >= 0` a ray whose numerator and `d_z` differ in sign
+    /// (or with a zero numerator) has `t <= 0` and is answered without the division (most
+    /// shadow rays and every upward primary ray): the same answer, one division fewer.
+    #[inline]
+    #[must_use]
+    pub fn hit(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<f64> {
+        let dz = ray.dir.z;
+        if dz == 0.0 {
+            return None;
+        }
+        let num = self.height_m - ray.origin.z;
+        let towards = (num > 0.0 && dz > 0.0) || (num < 0.0 && dz < 0.0);
+        if t_min >= 0.0 && !towards {
+            return None;
+        }
+        let t = num / dz;
+        (t > t_min && t < t_max).then_some(t)
+    }
+}
+
 /// A renderable world: static BVH, ground plane, movable objects and materials.
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -412,11 +434,7 @@ impl Scene {
         t_max: f64,
     ) -> Option<Hit> {
         let t = match source {
-            HitSource::Ground => {
-                let g = self.ground.as_ref()?;
-                let t = (g.height_m - ray.origin.z) / ray.dir.z;
-                (t > t_min && t < t_max).then_some(t)?
-            }
+            HitSource::Ground => self.ground?.hit(ray, t_min, t_max)?,
             HitSource::Static => self
                 .statics
                 .primitives()
@@ -458,18 +476,13 @@ impl Scene {
         let mut best =
             hint.and_then(|h| self.intersect_primitive(ray, h.source, h.prim, t_min, t_max));
         let mut t_best = best.map_or(t_max, |h| h.t_m);
-        if let Some(g) = &self.ground
-            && ray.dir.z != 0.0
-        {
-            let t = (g.height_m - ray.origin.z) / ray.dir.z;
-            if t > t_min && t < t_best {
-                t_best = t;
-                best = Some(Hit {
-                    t_m: t,
-                    source: HitSource::Ground,
-                    prim: 0,
-                });
-            }
+        if let Some(t) = self.ground.and_then(|g| g.hit(ray, t_min, t_best)) {
+            t_best = t;
+            best = Some(Hit {
+                t_m: t,
+                source: HitSource::Ground,
+                prim: 0,
+            });
         }
         if let Some(h) = self.statics.intersect(ray, t_min, t_best) {
             t_best = h.t_m;
@@ -553,18 +566,13 @@ impl Scene {
     ) -> Option<Hit> {
         let mut best = None;
         let mut t_best = t_max;
-        if let Some(g) = &self.ground
-            && ray.dir.z != 0.0
-        {
-            let t = (g.height_m - ray.origin.z) / ray.dir.z;
-            if t > t_min && t < t_best {
-                t_best = t;
-                best = Some(Hit {
-                    t_m: t,
-                    source: HitSource::Ground,
-                    prim: 0,
-                });
-            }
+        if let Some(t) = self.ground.and_then(|g| g.hit(ray, t_min, t_best)) {
+            t_best = t;
+            best = Some(Hit {
+                t_m: t,
+                source: HitSource::Ground,
+                prim: 0,
+            });
         }
         if let Some(h) = self
             .statics
@@ -584,13 +592,8 @@ impl Scene {
     #[inline]
     #[must_use]
     pub fn occluded_culled(&self, ray: &Ray, t_min: f64, t_max: f64, statics: &Candidates) -> bool {
-        if let Some(g) = &self.ground
-            && ray.dir.z != 0.0
-        {
-            let t = (g.height_m - ray.origin.z) / ray.dir.z;
-            if t > t_min && t < t_max {
-                return true;
-            }
+        if self.ground.and_then(|g| g.hit(ray, t_min, t_max)).is_some() {
+            return true;
         }
         if self
             .statics
@@ -687,18 +690,13 @@ impl Scene {
         {
             return true;
         }
-        if let Some(g) = &self.ground
-            && ray.dir.z != 0.0
-        {
-            let t = (g.height_m - ray.origin.z) / ray.dir.z;
-            if t > t_min && t < t_max {
-                *hint = Some(Hit {
-                    t_m: t,
-                    source: HitSource::Ground,
-                    prim: 0,
-                });
-                return true;
-            }
+        if let Some(t) = self.ground.and_then(|g| g.hit(ray, t_min, t_max)) {
+            *hint = Some(Hit {
+                t_m: t,
+                source: HitSource::Ground,
+                prim: 0,
+            });
+            return true;
         }
         if let Some(prim) = self.statics.occluder(ray, t_min, t_max) {
             *hint = Some(Hit {
@@ -769,5 +767,44 @@ impl Scene {
                 })
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The sign shortcut of [`Ground::hit`] gives the plain division's answer, bit for bit,
+    /// for rays towards and away from the plane, parallel ones, origins on it, and negative
+    /// `t_min`.
+    #[test]
+    fn ground_hit_equals_the_plain_division() {
+        let g = Ground {
+            height_m: 0.25,
+            material: MaterialId(0),
+        };
+        let plain = |ray: &Ray, t_min: f64, t_max: f64| {
+            if ray.dir.z == 0.0 {
+                return None;
+            }
+            let t = (g.height_m - ray.origin.z) / ray.dir.z;
+            (t > t_min && t < t_max).then_some(t)
+        };
+        let mut hits = 0;
+        for i in 0..4000_u32 {
+            let f = |k: u32| f64::from((i.wrapping_mul(2_654_435_761) >> k) % 1000) / 500.0 - 1.0;
+            let z0 = [0.25, -3.0, 0.250_000_1, 4.0][(i % 4) as usize];
+            let dz = if i % 7 == 0 { 0.0 } else { f(3) };
+            let ray = Ray {
+                origin: Point3::new(f(1), f(2), z0),
+                dir: Vector3::new(f(5), f(7), dz),
+            };
+            for (t_min, t_max) in [(0.0, f64::INFINITY), (1e-6, 2.0), (-5.0, 5.0)] {
+                let (a, b) = (g.hit(&ray, t_min, t_max), plain(&ray, t_min, t_max));
+                assert_eq!(a.map(f64::to_bits), b.map(f64::to_bits), "{ray:?}");
+                hits += usize::from(a.is_some());
+            }
+        }
+        assert!(hits > 1000, "{hits}");
     }
 }
