@@ -294,7 +294,8 @@ impl Bvh {
         out: &mut Candidates,
     ) {
         out.boxes.clear();
-        out.shared_origin = None;
+        // Keep the per-candidate vector for reuse below (no allocation per tile).
+        let recycled = out.shared_origin.take().map(|(_, pre)| pre);
         out.shared_dir = None;
         out.overflow = false;
         if self.nodes.is_empty() {
@@ -347,21 +348,17 @@ impl Bvh {
         out.boxes
             .sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.index.cmp(&b.1.index)));
         // One shared origin (a camera's primary rays): evaluate each box's origin terms once.
-        let mut shared = out.shared_origin.take();
         if origins_lo == origins_hi {
             let origin = Point3::from(origins_lo);
-            let mut pre = shared.map(|(_, v)| v).unwrap_or_default();
+            let mut pre = recycled.unwrap_or_default();
             pre.clear();
             pre.extend(out.boxes.iter().map(|(_, n)| {
                 self.prims
                     .get(n.index as usize)
                     .and_then(|p| p.shape.box_from_origin(&origin))
             }));
-            shared = Some((origin, pre));
-        } else {
-            shared = None;
+            out.shared_origin = Some((origin, pre));
         }
-        out.shared_origin = shared;
     }
 
     /// Closest hit over culled candidates (the whole hierarchy if they overflowed).
