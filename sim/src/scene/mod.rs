@@ -422,6 +422,17 @@ impl Scene {
         self.intersect_hinted(ray, t_min, t_max, None)
     }
 
+    /// The ground plane's hit of `ray` in `(t_min, t_max)`, if there is a ground.
+    #[inline]
+    fn ground_hit(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
+        let t = self.ground?.hit(ray, t_min, t_max)?;
+        Some(Hit {
+            t_m: t,
+            source: HitSource::Ground,
+            prim: 0,
+        })
+    }
+
     /// Distance to one given primitive (`None` if missed or unknown).
     #[inline]
     #[must_use]
@@ -476,13 +487,9 @@ impl Scene {
         let mut best =
             hint.and_then(|h| self.intersect_primitive(ray, h.source, h.prim, t_min, t_max));
         let mut t_best = best.map_or(t_max, |h| h.t_m);
-        if let Some(t) = self.ground.and_then(|g| g.hit(ray, t_min, t_best)) {
-            t_best = t;
-            best = Some(Hit {
-                t_m: t,
-                source: HitSource::Ground,
-                prim: 0,
-            });
+        if let Some(h) = self.ground_hit(ray, t_min, t_best) {
+            t_best = h.t_m;
+            best = Some(h);
         }
         if let Some(h) = self.statics.intersect(ray, t_min, t_best) {
             t_best = h.t_m;
@@ -566,13 +573,9 @@ impl Scene {
     ) -> Option<Hit> {
         let mut best = None;
         let mut t_best = t_max;
-        if let Some(t) = self.ground.and_then(|g| g.hit(ray, t_min, t_best)) {
-            t_best = t;
-            best = Some(Hit {
-                t_m: t,
-                source: HitSource::Ground,
-                prim: 0,
-            });
+        if let Some(h) = self.ground_hit(ray, t_min, t_best) {
+            t_best = h.t_m;
+            best = Some(h);
         }
         if let Some(h) = self
             .statics
@@ -592,7 +595,7 @@ impl Scene {
     #[inline]
     #[must_use]
     pub fn occluded_culled(&self, ray: &Ray, t_min: f64, t_max: f64, statics: &Candidates) -> bool {
-        if self.ground.and_then(|g| g.hit(ray, t_min, t_max)).is_some() {
+        if self.ground_hit(ray, t_min, t_max).is_some() {
             return true;
         }
         if self
@@ -690,12 +693,8 @@ impl Scene {
         {
             return true;
         }
-        if let Some(t) = self.ground.and_then(|g| g.hit(ray, t_min, t_max)) {
-            *hint = Some(Hit {
-                t_m: t,
-                source: HitSource::Ground,
-                prim: 0,
-            });
+        if let Some(h) = self.ground_hit(ray, t_min, t_max) {
+            *hint = Some(h);
             return true;
         }
         if let Some(prim) = self.statics.occluder(ray, t_min, t_max) {

@@ -479,22 +479,36 @@ fn min_lane(d: &[[f32; 4]; 3]) -> f32 {
     lt(lt(m[0], m[2]), lt(m[1], m[3]))
 }
 
+/// Bit mask of the lanes of `d` equal to `f1` (lane `4 g + l` is bit `4 g + l`).
+#[inline(always)]
+fn lanes_equal(d: &[[f32; 4]; 3], f1: f32) -> u32 {
+    let mut equal = 0_u32;
+    for (g, dg) in d.iter().enumerate() {
+        for (l, &v) in dg.iter().enumerate() {
+            equal |= u32::from(v == f1) << (4 * g + l);
+        }
+    }
+    equal
+}
+
+/// The first lane of a [`lanes_equal`] mask: the nearest cell in row-major order, as the
+/// sequential scan keeps it.
+#[inline(always)]
+fn first_lane(equal: u32) -> usize {
+    (equal.trailing_zeros() as usize).min(CELL_LANES - 1)
+}
+
 /// [`Cell`] of the position `(fx, fy)` within the centre cell of `pts`.
 #[inline(always)]
 fn nearest_points(pts: &CellPoints, fx: f32, fy: f32) -> Cell {
     let d = squared_distances(pts, fx, fy);
     let f1 = min_lane(&d);
-    // Lanes equal to the minimum (bit mask); the nearest cell is the first of them.
-    let mut equal = 0_u32;
+    let equal = lanes_equal(&d, f1);
+    let k = first_lane(equal);
     let mut above = d;
-    for (g, ag) in above.iter_mut().enumerate() {
-        for (l, a) in ag.iter_mut().enumerate() {
-            let v = *a;
-            equal |= u32::from(v == f1) << (4 * g + l);
-            *a = if v > f1 { v } else { f32::MAX };
-        }
+    for a in above.iter_mut().flatten() {
+        *a = if *a > f1 { *a } else { f32::MAX };
     }
-    let k = (equal.trailing_zeros() as usize).min(CELL_LANES - 1);
     // Second nearest: f1 again if another lane ties with it, else the least of the rest.
     let f2 = if equal.count_ones() >= 2 {
         f1
@@ -757,14 +771,7 @@ impl NoiseCache {
         }
         let d = squared_distances(pts, fx, fy);
         let f1 = min_lane(&d);
-        // The nearest cell is the first lane (row-major) attaining the minimum.
-        let mut equal = 0_u32;
-        for (g, dg) in d.iter().enumerate() {
-            for (l, &v) in dg.iter().enumerate() {
-                equal |= u32::from(v == f1) << (4 * g + l);
-            }
-        }
-        let id = pts.h[(equal.trailing_zeros() as usize).min(CELL_LANES - 1)];
+        let id = pts.h[first_lane(lanes_equal(&d, f1))];
         (unit_f32(id) <= max_unit).then(|| Nearest { f1: f1.sqrt(), id })
     }
 }
