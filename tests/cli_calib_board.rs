@@ -3,15 +3,11 @@
 //! has the README reference's quality (median AX=XB rotation residual ~0.87 deg over the 153
 //! pairs with Park; rotation within ~0.4 deg of identity, t ~ (-2.4, -6.4, -10.1) mm).
 
-use std::path::Path;
-use std::process::Command;
+#[path = "support/cli.rs"]
+mod cli;
+use cli::rodlog;
 
-fn rodlog(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_rodlog"))
-        .args(args)
-        .output()
-        .expect("run rodlog")
-}
+use std::path::Path;
 
 #[test]
 fn board_calibration_of_imported_shecar_matches_the_reference() {

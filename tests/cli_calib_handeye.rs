@@ -3,8 +3,11 @@
 //! an inverted X cannot pass); scale-free data returns its scale; degenerate input is
 //! refused with a message and a non-zero exit code.
 
+#[path = "support/cli.rs"]
+mod cli;
+use cli::rodlog;
+
 use std::path::Path;
-use std::process::Command;
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 
@@ -52,13 +55,6 @@ fn write_tum(path: &Path, poses: &[Isometry3<f64>], scale: f64) {
         ));
     }
     std::fs::write(path, text).expect("write pose file");
-}
-
-fn rodlog(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_rodlog"))
-        .args(args)
-        .output()
-        .expect("run rodlog")
 }
 
 fn matrix_of(json: &serde_json::Value) -> nalgebra::Matrix4<f64> {

@@ -2,16 +2,11 @@
 //! distributions give matches the warp confirms, and a wrong `--distribution` is refused
 //! with the list of choices.
 
-use std::process::Command;
+#[path = "support/cli.rs"]
+mod cli;
+use cli::rodlog;
 
 use calib::features::synth::{apply_homography, similarity, textured_image, warp_homography};
-
-fn rodlog(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_rodlog"))
-        .args(args)
-        .output()
-        .expect("run rodlog")
-}
 
 #[test]
 fn match_with_each_distribution_finds_true_matches() {

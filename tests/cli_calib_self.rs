@@ -7,6 +7,10 @@
 //! the calibration stage's outputs (the same X, the camera edge switched to it), replays byte
 //! for byte on one thread, and `calib self --out` writes them into a new file.
 
+#[path = "support/cli.rs"]
+mod cli;
+use cli::rodlog;
+
 #[path = "support/sim_truth.rs"]
 mod sim_truth;
 use std::path::Path;
@@ -15,14 +19,6 @@ use std::process::Command;
 use msgs::Msg;
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use replay::{McapReader, ReadFilter};
-
-fn rodlog(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_rodlog"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(args)
-        .output()
-        .expect("run rodlog")
-}
 
 fn estimate(json: &serde_json::Value) -> Isometry3<f64> {
     let t: Vec<f64> = (0..3)

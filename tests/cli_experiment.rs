@@ -2,15 +2,11 @@
 //! resolution) writes a report, parseable results with every method's numbers and seeds,
 //! match pictures and plots.
 
-use std::path::Path;
-use std::process::Command;
+#[path = "support/cli.rs"]
+mod cli;
+use cli::rodlog;
 
-fn rodlog(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_rodlog"))
-        .args(args)
-        .output()
-        .expect("run rodlog")
-}
+use std::path::Path;
 
 #[test]
 fn matchers_smoke_run_writes_report_results_and_pictures() {

@@ -1,19 +1,15 @@
 //! `rodlog import folder|shecar` round trips: what is written is what the dataset holds
 //! (pixels, depth, intrinsics, hand poses), read back with rodlog's own reader.
 
+#[path = "support/cli.rs"]
+mod cli;
+use cli::rodlog;
+
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use msgs::Msg;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use replay::{McapReader, ReadFilter};
-
-fn rodlog(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_rodlog"))
-        .args(args)
-        .output()
-        .expect("run rodlog")
-}
 
 fn pose(i: usize) -> Isometry3<f64> {
     let k = i as f64;

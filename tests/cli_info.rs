@@ -1,21 +1,17 @@
 //! End-to-end tests of `rodlog info`: text and JSON output of an intact, a crashed and a
 //! broken recording, and errors on stderr with a non-zero exit code.
 
+#[path = "support/cli.rs"]
+mod cli;
+use cli::rodlog;
+
 #[path = "support/fixture.rs"]
 mod fixture;
 
 use std::path::Path;
-use std::process::{Command, Output};
 
 use recorder::ChunkCompression;
 use serde_json::Value;
-
-fn rodlog(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_rodlog"))
-        .args(args)
-        .output()
-        .expect("run rodlog")
-}
 
 fn info_json(path: &Path) -> Value {
     let out = rodlog(&["info", path.to_str().expect("utf-8 path"), "--json"]);

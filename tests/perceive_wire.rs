@@ -4,15 +4,11 @@
 //! reproduces every stage output; `check motion` passes on the run and fails on a recording
 //! whose command breaks the limits.
 
-use std::path::Path;
-use std::process::Command;
+#[path = "support/cli.rs"]
+mod cli;
+use cli::rodlog;
 
-fn rodlog(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_rodlog"))
-        .args(args)
-        .output()
-        .expect("rodlog runs")
-}
+use std::path::Path;
 
 fn scenario() -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -3,16 +3,11 @@
 //! run to run and for 1 or 2 worker threads, `replay --check` reproduces every stage output,
 //! and `--set` reaches the world (a changed world changes the bytes) or is refused by name.
 
-use std::path::Path;
-use std::process::Command;
+#[path = "support/cli.rs"]
+mod cli;
+use cli::rodlog;
 
-fn rodlog(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_rodlog"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(args)
-        .output()
-        .expect("run rodlog")
-}
+use std::path::Path;
 
 fn record(out: &Path, extra: &[&str]) {
     let out_s = out.display().to_string();

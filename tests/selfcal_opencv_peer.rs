@@ -8,6 +8,10 @@
 //! `<repo>/.venv-ref`). Without it the test prints a notice and passes, unless
 //! `RODLOG_INTEROP_REQUIRED=1` (CI), where it fails.
 
+#[path = "support/cli.rs"]
+mod cli;
+use cli::rodlog;
+
 #[path = "support/reference_venv.rs"]
 mod reference_venv;
 #[path = "support/sim_truth.rs"]
@@ -19,14 +23,6 @@ use nalgebra::{Isometry3, Matrix3, Quaternion, Rotation3, Translation3, UnitQuat
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn rodlog(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_rodlog"))
-        .current_dir(repo())
-        .args(args)
-        .output()
-        .expect("run rodlog")
 }
 
 fn vec_f64(v: &serde_json::Value) -> Vec<f64> {

@@ -3,15 +3,11 @@
 //! replay byte for byte, and the judge catches what is unsafe (a colliding command, commands
 //! in high wind) while a windy start is waited for, then refused without a single command.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+#[path = "support/cli.rs"]
+mod cli;
+use cli::rodlog;
 
-fn rodlog(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_rodlog"))
-        .args(args)
-        .output()
-        .expect("rodlog runs")
-}
+use std::path::{Path, PathBuf};
 
 fn scenario(name: &str) -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))
