@@ -62,7 +62,9 @@ use crate::scene::textures::NoiseCache;
 use crate::scene::{Candidates, Hit, Ray, Scene, Slab};
 use depth_sensor::DepthSample;
 use rgb_sensor::{HISTOGRAM_BINS, histogram_bin};
-use shading::{LightSetup, SHADOW_BIAS_M, Shaded, TraceHints, shade_hit, shade_sky, trace_culled};
+use shading::{
+    AlbedoBatch, LightSetup, SHADOW_BIAS_M, Shaded, SurfaceHit, TraceHints, shade_sky, trace_culled,
+};
 
 /// Errors of rendering.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -351,6 +353,10 @@ struct TileScratch {
     primary: Candidates,
     shadow: Candidates,
     noise: NoiseCache,
+    /// Per ray: the surface it hit, if any.
+    hits: Vec<Option<SurfaceHit>>,
+    albedo: Vec<[f32; 3]>,
+    batch: AlbedoBatch,
 }
 
 /// Half-spaces `n_cam . p_cam >= 0` through the camera centre bounding the rays whose
@@ -515,14 +521,25 @@ fn render_tile(
         }
         // Without a hit in the tile no shadow ray is cast (the candidates go unused).
     }
+    // Surfaces, then the textures of the whole tile in batches, then lighting.
+    sc.hits.clear();
+    sc.hits.extend(sc.rays.iter().map(|r| {
+        r.hit
+            .as_ref()
+            .and_then(|h| SurfaceHit::new(scene, &r.ray, h, cam.footprint_per_m).ok())
+    }));
+    sc.batch.run(scene, &sc.hits, &mut sc.noise, &mut sc.albedo);
     let shadow = &sc.shadow;
-    let noise = &mut sc.noise;
-    for r in &sc.rays {
-        let s = match &r.hit {
-            None => shade_sky(setup, &r.ray),
-            Some(h) => shade_hit(scene, setup, &r.ray, h, cam.footprint_per_m, noise, |sr| {
+    for ((r, surface), &albedo) in sc.rays.iter().zip(&sc.hits).zip(&sc.albedo) {
+        let s = match (surface, &r.hit) {
+            (Some(h), _) => h.shade(setup, &r.ray, albedo, scene, |sr| {
                 scene.occluded_culled(sr, 0.0, f64::INFINITY, shadow)
             }),
+            (None, None) => shade_sky(setup, &r.ray),
+            // A hit without a surface (not produced by a valid scene): its black shading.
+            (None, Some(h)) => SurfaceHit::new(scene, &r.ray, h, cam.footprint_per_m)
+                .err()
+                .unwrap_or_else(|| shade_sky(setup, &r.ray)),
         };
         out(r.j, r.col, r.row, &s, r.dz);
     }

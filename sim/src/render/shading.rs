@@ -14,8 +14,9 @@ use nalgebra::{Point3, Vector3};
 
 use super::depth_sensor::DepthSample;
 use super::light::{LightConditions, luminance};
+use crate::scene::bolted_panel::SimdLevel;
 use crate::scene::textures::NoiseCache;
-use crate::scene::{Candidates, Hit, Ray, Scene, Shading};
+use crate::scene::{Candidates, Hit, MaterialId, Ray, Scene, Shading, SurfacePoint};
 
 /// Albedo of the surroundings bouncing light up onto downward-facing surfaces.
 pub const GROUND_BOUNCE_ALBEDO: f64 = 0.2;
@@ -169,98 +170,289 @@ pub fn shade_hit(
     hit: &Hit,
     footprint_per_m: f64,
     noise: &mut NoiseCache,
-    mut occluded: impl FnMut(&Ray) -> bool,
+    occluded: impl FnMut(&Ray) -> bool,
 ) -> Shaded {
-    let key =
-        crate::scene::noise::hash_u32((hit.key() ^ (hit.key() >> 29)) as u32).min(u32::MAX - 1);
-    let Some(sp) = scene.surface(ray, hit) else {
-        return Shaded {
-            radiance: [0.0; 3],
-            key,
-            depth: None,
-            t_m: hit.t_m,
-        };
-    };
-    let mut n = sp.normal;
-    let mut cos_i = -n.dot(&ray.dir);
-    if cos_i < 0.0 {
-        n = -n;
-        cos_i = -cos_i;
+    match SurfaceHit::new(scene, ray, hit, footprint_per_m) {
+        Ok(s) => {
+            let albedo = s.albedo(scene, noise);
+            s.shade(setup, ray, albedo, scene, occluded)
+        }
+        Err(black) => black,
     }
-    let mat = scene.material(sp.material);
-    // Pixels per metre on the surface (the footprint's reciprocal: one division).
-    let px_per_m = (cos_i.max(0.2) / (hit.t_m * footprint_per_m)) as f32;
-    let albedo = mat.albedo_at_density(sp.uv_m, sp.face, px_per_m, noise);
-    let a = [
-        f64::from(albedo[0]),
-        f64::from(albedo[1]),
-        f64::from(albedo[2]),
-    ];
+}
 
-    let ndl = n.dot(&setup.sun_dir);
-    let mut e_direct = 0.0;
-    if ndl > 0.0 && setup.e_sun > 0.0 {
-        let visible = !setup.shadows || {
-            let origin: Point3<f64> = sp.point + n * SHADOW_BIAS_M;
-            !occluded(&Ray {
-                origin,
-                dir: setup.sun_dir,
-            })
+/// A primary hit between intersection and shading: its surface point, the normal turned
+/// towards the ray, the cosine of incidence and the pixel density on the surface (the
+/// texture lookup's inputs), so a tile can look its textures up in batches
+/// ([`AlbedoBatch`]) before lighting each pixel ([`SurfaceHit::shade`]).
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceHit {
+    sp: SurfacePoint,
+    normal: Vector3<f64>,
+    cos_i: f64,
+    px_per_m: f32,
+    key: u32,
+    t_m: f64,
+}
+
+impl SurfaceHit {
+    /// The surface of `hit`; `Err` is the shading of a hit without one (black, no depth).
+    pub fn new(scene: &Scene, ray: &Ray, hit: &Hit, footprint_per_m: f64) -> Result<Self, Shaded> {
+        let key =
+            crate::scene::noise::hash_u32((hit.key() ^ (hit.key() >> 29)) as u32).min(u32::MAX - 1);
+        let Some(sp) = scene.surface(ray, hit) else {
+            return Err(Shaded {
+                radiance: [0.0; 3],
+                key,
+                depth: None,
+                t_m: hit.t_m,
+            });
         };
-        if visible {
-            e_direct = setup.e_sun * ndl;
+        let mut normal = sp.normal;
+        let mut cos_i = -normal.dot(&ray.dir);
+        if cos_i < 0.0 {
+            normal = -normal;
+            cos_i = -cos_i;
         }
+        // Pixels per metre on the surface (the footprint's reciprocal: one division).
+        let px_per_m = (cos_i.max(0.2) / (hit.t_m * footprint_per_m)) as f32;
+        Ok(Self {
+            sp,
+            normal,
+            cos_i,
+            px_per_m,
+            key,
+            t_m: hit.t_m,
+        })
     }
-    let up = n.z.clamp(-1.0, 1.0);
-    let sky_w = 0.5 + 0.5 * up;
-    let e_sky = setup.e_sky * sky_w;
-    let e_gnd = setup.e_ground * (1.0 - sky_w);
-    let t = 1.0 - up.max(0.0);
-    let l = &setup.light;
-    let mut rad = [0.0; 3];
-    for c in 0..3 {
-        let sky_c = l.sky_zenith_rgb[c] + (l.sky_horizon_rgb[c] - l.sky_zenith_rgb[c]) * t;
-        let irr = e_direct * setup.sun_rgb[c] + e_sky * sky_c + e_gnd * l.sky_horizon_rgb[c];
-        rad[c] = a[c] * INV_PI * irr;
+
+    /// The texture's albedo here (one lookup; [`AlbedoBatch`] looks many up at once).
+    pub fn albedo(&self, scene: &Scene, noise: &mut NoiseCache) -> [f32; 3] {
+        scene.material(self.sp.material).albedo_at_density(
+            self.sp.uv_m,
+            self.sp.face,
+            self.px_per_m,
+            noise,
+        )
     }
-    let mut metal = false;
-    if let Shading::Glossy { specular, exponent } | Shading::Metal { specular, exponent } =
-        mat.shading
-    {
-        let (ks, e) = (f64::from(specular), f64::from(exponent));
-        let is_metal = matches!(mat.shading, Shading::Metal { .. });
-        metal = is_metal && ks >= 0.15;
-        let tint = |c: usize| {
-            if is_metal {
-                a[c] / luminance(a).max(1e-3)
-            } else {
-                1.0
+
+    /// Radiance of this hit of `ray` with the given texture albedo (module docs);
+    /// `occluded` answers the shadow ray.
+    pub fn shade(
+        &self,
+        setup: &LightSetup,
+        ray: &Ray,
+        albedo: [f32; 3],
+        scene: &Scene,
+        mut occluded: impl FnMut(&Ray) -> bool,
+    ) -> Shaded {
+        let (sp, n, cos_i, key) = (&self.sp, self.normal, self.cos_i, self.key);
+        let mat = scene.material(sp.material);
+        let a = [
+            f64::from(albedo[0]),
+            f64::from(albedo[1]),
+            f64::from(albedo[2]),
+        ];
+
+        let ndl = n.dot(&setup.sun_dir);
+        let mut e_direct = 0.0;
+        if ndl > 0.0 && setup.e_sun > 0.0 {
+            let visible = !setup.shadows || {
+                let origin: Point3<f64> = sp.point + n * SHADOW_BIAS_M;
+                !occluded(&Ray {
+                    origin,
+                    dir: setup.sun_dir,
+                })
+            };
+            if visible {
+                e_direct = setup.e_sun * ndl;
             }
-        };
-        let v = -ray.dir;
-        let refl = ray.dir + n * (2.0 * cos_i);
-        let sky = l.sky_radiance(&refl);
-        let hv = setup.sun_dir + v;
-        let spec = if e_direct > 0.0 && hv.norm_squared() > 1e-12 {
-            let nh = n.dot(&hv.normalize()).max(0.0);
-            ks * (e + 8.0) / (8.0 * std::f64::consts::PI) * nh.powf(e) * e_direct
-        } else {
-            0.0
-        };
+        }
+        let up = n.z.clamp(-1.0, 1.0);
+        let sky_w = 0.5 + 0.5 * up;
+        let e_sky = setup.e_sky * sky_w;
+        let e_gnd = setup.e_ground * (1.0 - sky_w);
+        let t = 1.0 - up.max(0.0);
+        let l = &setup.light;
+        let mut rad = [0.0; 3];
         for c in 0..3 {
-            rad[c] += tint(c) * (spec * setup.sun_rgb[c] + ks * sky[c]);
+            let sky_c = l.sky_zenith_rgb[c] + (l.sky_horizon_rgb[c] - l.sky_zenith_rgb[c]) * t;
+            let irr = e_direct * setup.sun_rgb[c] + e_sky * sky_c + e_gnd * l.sky_horizon_rgb[c];
+            rad[c] = a[c] * INV_PI * irr;
+        }
+        let mut metal = false;
+        if let Shading::Glossy { specular, exponent } | Shading::Metal { specular, exponent } =
+            mat.shading
+        {
+            let (ks, e) = (f64::from(specular), f64::from(exponent));
+            let is_metal = matches!(mat.shading, Shading::Metal { .. });
+            metal = is_metal && ks >= 0.15;
+            let tint = |c: usize| {
+                if is_metal {
+                    a[c] / luminance(a).max(1e-3)
+                } else {
+                    1.0
+                }
+            };
+            let v = -ray.dir;
+            let refl = ray.dir + n * (2.0 * cos_i);
+            let sky = l.sky_radiance(&refl);
+            let hv = setup.sun_dir + v;
+            let spec = if e_direct > 0.0 && hv.norm_squared() > 1e-12 {
+                let nh = n.dot(&hv.normalize()).max(0.0);
+                ks * (e + 8.0) / (8.0 * std::f64::consts::PI) * nh.powf(e) * e_direct
+            } else {
+                0.0
+            };
+            for c in 0..3 {
+                rad[c] += tint(c) * (spec * setup.sun_rgb[c] + ks * sky[c]);
+            }
+        }
+        Shaded {
+            radiance: [rad[0] as f32, rad[1] as f32, rad[2] as f32],
+            key,
+            depth: Some(DepthSample {
+                z_m: 0.0,
+                cos_incidence: cos_i,
+                albedo: luminance(a),
+                sun_lux: e_direct,
+                metal,
+            }),
+            t_m: self.t_m,
         }
     }
-    Shaded {
-        radiance: [rad[0] as f32, rad[1] as f32, rad[2] as f32],
-        key,
-        depth: Some(DepthSample {
-            z_m: 0.0,
-            cos_incidence: cos_i,
-            albedo: luminance(a),
-            sun_lux: e_direct,
-            metal,
-        }),
-        t_m: hit.t_m,
+}
+
+/// Points waiting per material before a batched texture lookup (one AVX-512 vector of
+/// f32, two AVX2 vectors).
+const ALBEDO_LANES: usize = 16;
+
+/// Texture lookups of a tile's hits, batched per material: textures with a lane kernel
+/// ([`crate::scene::Material::has_lane_texture`]) are evaluated [`ALBEDO_LANES`] points at
+/// a time, the others point by point. Every albedo equals [`SurfaceHit::albedo`] bit for
+/// bit, so batching changes only the speed.
+#[derive(Clone, Debug, Default)]
+pub struct AlbedoBatch {
+    /// Per material with points waiting: its id and the indices of its waiting hits.
+    pending: Vec<(MaterialId, Vec<usize>)>,
+}
+
+impl AlbedoBatch {
+    /// The albedo of every hit of `hits` into `out` (same length; `[0; 3]` where `None`).
+    pub fn run(
+        &mut self,
+        scene: &Scene,
+        hits: &[Option<SurfaceHit>],
+        noise: &mut NoiseCache,
+        out: &mut Vec<[f32; 3]>,
+    ) {
+        out.clear();
+        out.resize(hits.len(), [0.0; 3]);
+        for (_, waiting) in &mut self.pending {
+            waiting.clear();
+        }
+        for (i, h) in hits.iter().enumerate() {
+            let Some(h) = h else { continue };
+            let id = h.sp.material;
+            if !scene.material(id).has_lane_texture() {
+                if let Some(o) = out.get_mut(i) {
+                    *o = h.albedo(scene, noise);
+                }
+                continue;
+            }
+            let slot = match self.pending.iter().position(|(m, _)| *m == id) {
+                Some(k) => k,
+                None => {
+                    self.pending.push((id, Vec::with_capacity(ALBEDO_LANES)));
+                    self.pending.len() - 1
+                }
+            };
+            let Some((_, waiting)) = self.pending.get_mut(slot) else {
+                continue;
+            };
+            waiting.push(i);
+            if waiting.len() == ALBEDO_LANES {
+                flush(scene, id, waiting, hits, noise, out);
+            }
+        }
+        for (id, waiting) in &mut self.pending {
+            if !waiting.is_empty() {
+                flush(scene, *id, waiting, hits, noise, out);
+            }
+        }
+    }
+}
+
+/// Looks up the albedo of the (at most [`ALBEDO_LANES`]) hits `waiting` of material `id`
+/// in lane batches and empties `waiting`: one batch of 16 with AVX-512, batches of 8
+/// otherwise (spare lanes repeat the last point).
+fn flush(
+    scene: &Scene,
+    id: MaterialId,
+    waiting: &mut Vec<usize>,
+    hits: &[Option<SurfaceHit>],
+    noise: &mut NoiseCache,
+    out: &mut [[f32; 3]],
+) {
+    let material = scene.material(id);
+    let wide = SimdLevel::detected() == SimdLevel::Avx512;
+    let batch = |first: usize, out: &mut [[f32; 3]], noise: &mut NoiseCache| {
+        if wide {
+            let (uv, face, ppm) = gather::<ALBEDO_LANES>(waiting, first, hits);
+            scatter(
+                waiting,
+                first,
+                &material.albedo_lanes(&uv, &face, &ppm, noise),
+                out,
+            );
+        } else {
+            let (uv, face, ppm) = gather::<{ ALBEDO_LANES / 2 }>(waiting, first, hits);
+            scatter(
+                waiting,
+                first,
+                &material.albedo_lanes(&uv, &face, &ppm, noise),
+                out,
+            );
+        }
+    };
+    let step = if wide { ALBEDO_LANES } else { ALBEDO_LANES / 2 };
+    for first in (0..waiting.len()).step_by(step) {
+        batch(first, out, noise);
+    }
+    waiting.clear();
+}
+
+/// Texture inputs of the hits `waiting[first..first + N]`, the last one repeated into
+/// spare lanes.
+fn gather<const N: usize>(
+    waiting: &[usize],
+    first: usize,
+    hits: &[Option<SurfaceHit>],
+) -> ([[f64; 2]; N], [u8; N], [f32; N]) {
+    let mut uv = [[0.0; 2]; N];
+    let mut face = [0_u8; N];
+    let mut ppm = [0.0_f32; N];
+    let mut last = None;
+    for k in 0..N {
+        if let Some(h) = waiting
+            .get(first + k)
+            .and_then(|&i| hits.get(i))
+            .and_then(Option::as_ref)
+        {
+            last = Some(h);
+        }
+        if let Some(h) = last {
+            (uv[k], face[k], ppm[k]) = (h.sp.uv_m, h.sp.face, h.px_per_m);
+        }
+    }
+    (uv, face, ppm)
+}
+
+/// Writes the lane results of `waiting[first..]` to their hits in `out`.
+fn scatter(waiting: &[usize], first: usize, albedo: &[[f32; 3]], out: &mut [[f32; 3]]) {
+    for (&i, a) in waiting.iter().skip(first).zip(albedo) {
+        if let Some(o) = out.get_mut(i) {
+            *o = *a;
+        }
     }
 }

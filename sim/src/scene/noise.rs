@@ -354,7 +354,7 @@ pub fn value2_lanes(x: [f32; 4], y: [f32; 4], seed: [u32; 4]) -> [f32; 4] {
 
 /// [`value2`] of `N` points at once, lane by lane the same operations (and bits).
 #[inline(always)]
-fn value_lanes<const N: usize>(x: [f32; N], y: [f32; N], seed: [u32; N]) -> [f32; N] {
+pub(crate) fn value_lanes<const N: usize>(x: [f32; N], y: [f32; N], seed: [u32; N]) -> [f32; N] {
     let mut out = [0.0_f32; N];
     for i in 0..N {
         let xf = x[i].floor();
@@ -375,6 +375,91 @@ fn value_lanes<const N: usize>(x: [f32; N], y: [f32; N], seed: [u32; N]) -> [f32
         out[i] = ab + (cd - ab) * ty;
     }
     out
+}
+
+/// [`fbm2`] at `N` points sharing scale, octaves and seed: lane `i` equals
+/// `fbm2(x[i], y[i], scale_m, octaves, px_per_m[i], seed)` bit for bit. The octaves run in
+/// the sequential order, each one `N`-lane value-noise lookup (a texture evaluated at `N`
+/// pixels at once; no memo, so nothing depends on the order of the points).
+#[inline(always)]
+#[must_use]
+pub(crate) fn fbm2_points<const N: usize>(
+    x: [f32; N],
+    y: [f32; N],
+    scale_m: f32,
+    octaves: u32,
+    px_per_m: [f32; N],
+    seed: u32,
+) -> [f32; N] {
+    let mut freq = 1.0 / scale_m;
+    let mut wavelength_px = px_per_m.map(|p| scale_m * p);
+    let mut amp = 1.0_f32;
+    let mut sum = [0.0_f32; N];
+    let mut norm = [0.0_f32; N];
+    for o in 0..octaves {
+        let mut xs = [0.0_f32; N];
+        let mut ys = [0.0_f32; N];
+        for i in 0..N {
+            xs[i] = x[i] * freq;
+            ys[i] = y[i] * freq;
+        }
+        let v = value_lanes(xs, ys, [seed.wrapping_add(o.wrapping_mul(0x9e37)); N]);
+        for i in 0..N {
+            // Wavelengths fall with the octave, so a lane's in-band octaves are a prefix
+            // (the sequential loop's early exit); the others add +0.0, which changes no sum.
+            let w = ((wavelength_px[i] - 2.0) * 0.5).clamp(0.0, 1.0);
+            let active = w > 0.0;
+            sum[i] += if active { amp * w * (v[i] - 0.5) } else { 0.0 };
+            norm[i] += if active { amp } else { 0.0 };
+            wavelength_px[i] *= 1.0 / LACUNARITY;
+        }
+        freq *= LACUNARITY;
+        amp *= GAIN;
+    }
+    let mut out = [0.0_f32; N];
+    for i in 0..N {
+        out[i] = if norm[i] > 0.0 { sum[i] / norm[i] } else { 0.0 };
+    }
+    out
+}
+
+/// The nearest feature point of [`cellular2`] at `N` points sharing a seed: lane `i` holds
+/// `(f1, id)` of `cellular2(x[i], y[i], seed)` bit for bit. Each point's 3x3 neighbourhood
+/// is scanned in row-major order, one cell per `N`-lane step.
+#[inline(always)]
+#[must_use]
+pub(crate) fn cellular_nearest_points<const N: usize>(
+    x: [f32; N],
+    y: [f32; N],
+    seed: u32,
+) -> ([f32; N], [u32; N]) {
+    let s = seed.wrapping_mul(SPREAD_SEED);
+    let mut ix = [0_u32; N];
+    let mut iy = [0_u32; N];
+    let mut fx = [0.0_f32; N];
+    let mut fy = [0.0_f32; N];
+    for i in 0..N {
+        let (xf, yf) = (x[i].floor(), y[i].floor());
+        (ix[i], iy[i]) = (lattice_index(xf), lattice_index(yf));
+        (fx[i], fy[i]) = (x[i] - xf, y[i] - yf);
+    }
+    let mut best = [f32::MAX; N];
+    let mut id = [0_u32; N];
+    for k in 0..CELLS {
+        for i in 0..N {
+            let kx = ix[i].wrapping_add(CELL_DX[k]).wrapping_mul(SPREAD_X);
+            let ky = iy[i].wrapping_add(CELL_DY[k]).wrapping_mul(SPREAD_Y) ^ s;
+            let h = hash_u32(kx ^ ky);
+            let ex = CELL_X[k] + 0.8 * jitter16(h & 0xffff) - fx[i];
+            let ey = CELL_Y[k] + 0.8 * jitter16(h >> 16) - fy[i];
+            let d = ex * ex + ey * ey;
+            // Strictly nearer: the first cell attaining the minimum keeps it.
+            let nearer = d < best[i];
+            best[i] = if nearer { d } else { best[i] };
+            id[i] = if nearer { h } else { id[i] };
+        }
+    }
+    (best.map(f32::sqrt), id)
 }
 
 /// One lane of [`lattice_lanes`].

@@ -25,10 +25,11 @@
 //! conductor strands and insulator discs are the repetitive cases; `Uniform` and lightly
 //! weathered paint are (nearly) textureless.
 
-pub use super::noise::NoiseCache;
-use super::noise::{
-    FbmPlan, aa_step, band_weight, hash_u32, hash2, unit_f32, value2, value2_lanes,
+use super::bolted_panel::{
+    CHIP_OUTLINE_M, RUST_RGB, SimdLevel, TexelLanes, bolted_panel, bolted_panel_at,
 };
+pub use super::noise::NoiseCache;
+use super::noise::{aa_step, band_weight, hash_u32, hash2, unit_f32, value2};
 
 /// Shading class of a material.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -185,6 +186,60 @@ impl Material {
         self.albedo_at_density(uv_m, face, 1.0 / footprint_m.max(MIN_FOOTPRINT_M), nc)
     }
 
+    /// Whether [`Self::albedo_lanes`] evaluates this material's texture in vector lanes
+    /// (faster than point by point); other textures gain nothing from batching.
+    #[must_use]
+    pub fn has_lane_texture(&self) -> bool {
+        matches!(self.texture, Texture::BoltedPanel { .. })
+    }
+
+    /// [`Self::albedo_at_density`] at `N` points at once (lane `i` is the albedo of point
+    /// `i`, bit for bit): one vector evaluation for textures with a lane kernel (see
+    /// [`Self::has_lane_texture`]), point by point for the others.
+    #[must_use]
+    pub fn albedo_lanes<const N: usize>(
+        &self,
+        uv_m: &[[f64; 2]; N],
+        face: &[u8; N],
+        px_per_m: &[f32; N],
+        nc: &mut NoiseCache,
+    ) -> [[f32; 3]; N] {
+        let Texture::BoltedPanel {
+            pitch_m,
+            bolt_radius_m,
+        } = self.texture
+        else {
+            let mut out = [[0.0; 3]; N];
+            for (i, o) in out.iter_mut().enumerate() {
+                *o = self.albedo_at_density(uv_m[i], face[i], px_per_m[i], nc);
+            }
+            return out;
+        };
+        let mut t = TexelLanes::default();
+        for i in 0..N {
+            (t.u[i], t.v[i], t.px_per_m[i], t.seed[i]) = self.texel(uv_m[i], face[i], px_per_m[i]);
+        }
+        bolted_panel_at(
+            SimdLevel::detected(),
+            &t,
+            self.base_rgb,
+            pitch_m,
+            bolt_radius_m,
+        )
+    }
+
+    /// The texture's lookup point: wrapped f32 coordinates, clamped pixel density and the
+    /// seed of the face.
+    #[inline(always)]
+    fn texel(&self, uv_m: [f64; 2], face: u8, px_per_m: f32) -> (f32, f32, f32, u32) {
+        // Keep f32 precision: textures repeat every 4096 m, far beyond the scene.
+        let u = wrap(uv_m[0], TEXTURE_PERIOD_M) as f32;
+        let v = wrap(uv_m[1], TEXTURE_PERIOD_M) as f32;
+        // (A NaN density becomes the finest.)
+        let ppm = px_per_m.min(1.0 / MIN_FOOTPRINT_M);
+        (u, v, ppm, hash_u32(self.seed ^ (u32::from(face) << 24)))
+    }
+
     /// [`Self::albedo_cached`] given the pixel density `px_per_m` (pixels per metre on the
     /// surface, the reciprocal of the footprint; at most `1 / 10 um`), which band limits and
     /// edge ramps multiply by.
@@ -196,12 +251,7 @@ impl Material {
         px_per_m: f32,
         nc: &mut NoiseCache,
     ) -> [f32; 3] {
-        // Keep f32 precision: textures repeat every 4096 m, far beyond the scene.
-        let u = wrap(uv_m[0], TEXTURE_PERIOD_M) as f32;
-        let v = wrap(uv_m[1], TEXTURE_PERIOD_M) as f32;
-        // (A NaN density becomes the finest.)
-        let ppm = px_per_m.min(1.0 / MIN_FOOTPRINT_M);
-        let seed = hash_u32(self.seed ^ (u32::from(face) << 24));
+        let (u, v, ppm, seed) = self.texel(uv_m, face, px_per_m);
         let b = self.base_rgb;
         let a = self.accent_rgb;
         match self.texture {
@@ -229,7 +279,15 @@ impl Material {
             Texture::BoltedPanel {
                 pitch_m,
                 bolt_radius_m,
-            } => bolted(nc, b, u, v, ppm, seed, pitch_m, bolt_radius_m),
+            } => {
+                let t = TexelLanes {
+                    u: [u],
+                    v: [v],
+                    px_per_m: [ppm],
+                    seed: [seed],
+                };
+                bolted_panel(&t, b, pitch_m, bolt_radius_m)[0]
+            }
             Texture::Label { glyph_m } => label(nc, b, a, u, v, ppm, seed, glyph_m),
             Texture::Louvres { pitch_m } => {
                 let f = fract01(v / pitch_m);
@@ -325,12 +383,6 @@ fn mix(a: [f32; 3], b: [f32; 3], t: f32) -> [f32; 3] {
         a[2] + (b[2] - a[2]) * t,
     ]
 }
-
-const RUST_RGB: [f32; 3] = [0.23, 0.09, 0.035];
-/// Streak profiles `exp(x)` with `x` below minus this are no streak.
-const STREAK_MIN_EXPONENT: f32 = 9.0;
-/// Wavelength of the noise perturbing paint-chip outlines (m).
-const CHIP_OUTLINE_M: f32 = 0.0012;
 
 // Texture parameters are plain scalars next to the memo; a struct would only rename them.
 #[allow(clippy::too_many_arguments)]
@@ -432,115 +484,6 @@ fn gravel(
     let detail = scale(mix(stone, scale(stone, 0.25), gap), speck);
     let large = 1.0 + 0.25 * nc.fbm2(u, v, 1.5, 3, ppm, seed ^ 5);
     scale(mix(mean, detail, w), large)
-}
-
-// Texture parameters are plain scalars next to the memo; a struct would only rename them.
-#[allow(clippy::too_many_arguments)]
-fn bolted(
-    nc: &mut NoiseCache,
-    b: [f32; 3],
-    u: f32,
-    v: f32,
-    ppm: f32,
-    seed: u32,
-    pitch: f32,
-    r: f32,
-) -> [f32; 3] {
-    // Reciprocals once: the per-pixel divisions below become multiplications.
-    let inv_pitch = 1.0 / pitch;
-    let inv_r = 1.0 / r;
-    let wp = pitch * 5.0;
-    let hp = pitch * 4.0;
-    let (pi, pj) = (
-        (u * (0.2 * inv_pitch)).floor() as i32,
-        (v * (0.25 * inv_pitch)).floor() as i32,
-    );
-    let (pu, pv) = (u - pi as f32 * wp, v - pj as f32 * hp);
-    let margin = 0.5 * pitch;
-    // Panel tone, seams.
-    let tone = 0.85 + 0.3 * unit_f32(hash2(pi, pj, seed));
-    let seam_d = pu.min(wp - pu).min(pv).min(hp - pv);
-    let seam = 0.25 + 0.75 * aa_step(0.0015, seam_d, ppm);
-    // Nearest bolt on the border rows/columns.
-    let snap = |x: f32, len: f32| {
-        (margin + ((x - margin) * inv_pitch).round() * pitch).clamp(margin, len - margin)
-    };
-    let row_v = if pv < hp * 0.5 { margin } else { hp - margin };
-    let col_u = if pu < wp * 0.5 { margin } else { wp - margin };
-    let c1 = (snap(pu, wp), row_v);
-    let c2 = (col_u, snap(pv, hp));
-    let d1 = ((pu - c1.0) * (pu - c1.0) + (pv - c1.1) * (pv - c1.1)).sqrt();
-    let d2 = ((pu - c2.0) * (pu - c2.0) + (pv - c2.1) * (pv - c2.1)).sqrt();
-    let (bc, d) = if d1 < d2 { (c1, d1) } else { (c2, d2) };
-    let (du, dv) = (pu - bc.0, pv - bc.1);
-    // Every per-pixel value-noise lookup of the panel in one 4-lane batch: the two octaves
-    // of the 12 mm grime, the streak modulation and the chip outline (each lane equals its
-    // own `value2`, so this is only faster).
-    let grime = FbmPlan::new(u, v, 0.012, 2, ppm, seed ^ 2);
-    let chip_seed = seed ^ 0x3c3c;
-    let mut lanes = grime;
-    lanes.x[2] = u * (1.0 / 0.004);
-    lanes.y[2] = v * (1.0 / 0.02);
-    lanes.seed[2] = seed;
-    lanes.x[3] = u * (1.0 / CHIP_OUTLINE_M);
-    lanes.y[3] = v * (1.0 / CHIP_OUTLINE_M);
-    lanes.seed[3] = chip_seed ^ 0x9999;
-    let noise = value2_lanes(lanes.x, lanes.y, lanes.seed);
-    let mut k = tone
-        * seam
-        * (1.0 + 0.12 * nc.fbm2(u, v, 0.3, 3, ppm, seed ^ 1) + 0.16 * grime.finish(noise));
-    let wb = band_weight(2.0 * r, ppm);
-    // Rust streaks run down (-v) from the top-row bolts and from the side-column bolts above
-    // the point; each bolt bleeds with its own strength `s_b` and profile
-    // `exp(-|du| / 0.6 r + dv / 14 r)`, modulated by one streaky noise
-    // `n = 0.6 + 0.8 value2(u / 4 mm, v / 20 mm)`. Since `n > 0`, the stronger streak is
-    // picked before multiplying by `n` (`max(a n, b n) = max(a, b) n`) and `n` is evaluated
-    // only where a streak reaches; a profile below `e^-9` (1e-4: under a thousandth of a grey
-    // level once mixed) is no streak, and none is drawn where bolts are below the band limit
-    // (`wb = 0`).
-    let streak = |du: f32, dv: f32, id: &dyn Fn() -> i32| {
-        if dv >= 0.0 || du.abs() > 4.0 * r || dv < -60.0 * r {
-            return 0.0;
-        }
-        let exponent = dv * ((1.0 / 14.0) * inv_r) - du.abs() * ((1.0 / 0.6) * inv_r);
-        if exponent < -STREAK_MIN_EXPONENT {
-            return 0.0;
-        }
-        unit_f32(hash2(id(), pi.wrapping_mul(131) ^ pj, seed ^ 0x5151)) * exponent.exp()
-    };
-    let rust_t = if wb > 0.0 {
-        let top_u = snap(pu, wp);
-        let above = (margin + ((pv - margin) * inv_pitch).ceil() * pitch).min(hp - margin);
-        let s1 = streak(pu - top_u, pv - (hp - margin), &|| {
-            (top_u * inv_pitch) as i32
-        });
-        let s2 = streak(pu - col_u, pv - above, &|| {
-            1000 + (above * inv_pitch) as i32 + (col_u * inv_pitch) as i32 * 7
-        });
-        let s = s1.max(s2);
-        let s = if s > 0.0 {
-            s * (0.6 + 0.8 * noise[2])
-        } else {
-            s
-        };
-        (0.7 * s).clamp(0.0, 1.0) * wb
-    } else {
-        0.0
-    };
-    let chip = chips(nc, u, v, ppm, chip_seed, 0.5, || noise[3]);
-    let mut c = mix(scale(b, k), RUST_RGB, rust_t);
-    c = mix(c, [0.07, 0.07, 0.065], chip);
-    if d < 1.4 * r {
-        // Washer ring, then a domed head lit from the upper left.
-        let head = 1.0 - aa_step(r * 0.75, d, ppm);
-        let washer = 1.0 - aa_step(r, d, ppm);
-        let lit = 1.0 + 0.8 * ((-du + dv) / (r * 1.414)).clamp(-1.0, 1.0);
-        let rim = 1.0 - 0.6 * (1.0 - aa_step(0.0, (d - r * 0.78).abs() - r * 0.05, ppm));
-        k = 1.0 + (washer * 0.9 - washer) + head * (lit - 1.0) * 0.8;
-        let bolt = scale(scale(b, k * rim), 1.0);
-        c = mix(c, bolt, washer * wb);
-    }
-    c
 }
 
 // Texture parameters are plain scalars next to the memo; a struct would only rename them.
