@@ -4,7 +4,7 @@
 //! scene when `../shared/data/shecar` is absent. The frame and a homography warp of it are
 //! written to `target/features-bench/{a,b}.png` so `scripts/features/bench_opencv.py` times
 //! OpenCV on the very same pixels. `RODLOG_SIMD=baseline` (or `avx2`) caps the vector level
-//! of the kernels ([`calib::features::simd`]) for an A/B of the same build.
+//! of the kernels ([`simd`]) for an A/B of the same build.
 
 use std::hint::black_box;
 use std::path::Path;

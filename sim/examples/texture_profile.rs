@@ -49,6 +49,7 @@ fn main() {
                             ]
                         });
                         let a = material.albedo_lanes(
+                            simd::max_level(),
                             black_box(&uv),
                             &[1; 8],
                             &[px_per_m; 8],

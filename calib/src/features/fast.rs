@@ -14,7 +14,6 @@
 //! wins).
 
 use super::gray::GrayView;
-use super::simd;
 
 /// Radius of the Bresenham circle; corners are never closer than this to the border.
 pub const FAST_RADIUS: usize = 3;
@@ -608,7 +607,7 @@ mod tests {
 
     #[test]
     fn detect_equals_the_definition() {
-        use crate::features::simd::{Level, with_max_level};
+        use simd::{Level, with_max_level};
         // Odd sizes (narrower than a vector block too), rects at the border, inside, small.
         for (w, h, seed) in [
             (157usize, 61usize, 3u64),

@@ -4,7 +4,7 @@
 //! buffers need no copy). All loops run over whole rows (`chunks`/`zip`) so the compiler
 //! can vectorise them; nothing allocates per pixel.
 
-use super::{FeatureError, simd};
+use super::FeatureError;
 
 /// A borrowed 8-bit gray image: `data[y * stride + x]` is the pixel in column `x`, row `y`.
 #[derive(Clone, Copy, Debug)]
@@ -536,10 +536,10 @@ mod tests {
 
     #[test]
     fn resize_is_the_same_on_every_simd_level() {
-        if !crate::features::simd::vbmi_allowed() {
+        if !simd::vbmi_allowed() {
             eprintln!("no AVX-512 VBMI here: only the scalar resize is compared");
         }
-        use crate::features::simd::{Level, with_max_level};
+        use simd::{Level, with_max_level};
         // Pyramid-like ratios, widths around and below the 64-pixel vector block, a
         // strided view, and 2x (where blocks span more source bytes).
         let mut state = 0x2545_F491_4F6C_DD1Du64;

@@ -13,7 +13,7 @@
 
 use rayon::prelude::*;
 
-use super::{Descriptor, simd};
+use super::Descriptor;
 
 /// Queries per rayon task.
 const CHUNK: usize = 64;

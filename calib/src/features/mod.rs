@@ -33,7 +33,6 @@ pub mod matcher;
 pub mod orb;
 pub mod quadtree;
 pub mod sift;
-pub mod simd;
 pub mod synth;
 
 use std::path::PathBuf;

@@ -39,7 +39,6 @@ use super::brief_pattern::BRIEF_PATTERN;
 use super::fast::{Corner, FastDetector, Rect};
 use super::gray::{BlurScratch, GrayBuf, GrayView, ResizeScratch, gaussian_blur7, resize_bilinear};
 use super::quadtree::Quadtree;
-use super::simd;
 use super::{Descriptor, FeatureError, Features, Keypoint};
 
 /// Harris constant `k` of `det(M) - k tr(M)^2`.
@@ -699,7 +698,7 @@ mod tests {
 
     #[test]
     fn features_are_the_same_bits_on_every_simd_level() {
-        use crate::features::simd::{Level, with_max_level};
+        use simd::{Level, with_max_level};
         // Odd sizes: row tails that are not multiples of any vector width.
         let img = textured_image(421, 317, 9);
         let params = OrbParams {

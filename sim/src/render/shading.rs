@@ -14,7 +14,6 @@ use nalgebra::{Point3, Vector3};
 
 use super::depth_sensor::DepthSample;
 use super::light::{LightConditions, luminance};
-use crate::scene::bolted_panel::SimdLevel;
 use crate::scene::textures::NoiseCache;
 use crate::scene::{Candidates, Hit, MaterialId, Ray, Scene, Shading, SurfacePoint};
 
@@ -395,14 +394,15 @@ fn flush(
     out: &mut [[f32; 3]],
 ) {
     let material = scene.material(id);
-    let wide = SimdLevel::detected() == SimdLevel::Avx512;
+    let level = simd::max_level();
+    let wide = level == simd::Level::Avx512;
     let batch = |first: usize, out: &mut [[f32; 3]], noise: &mut NoiseCache| {
         if wide {
             let (uv, face, ppm) = gather::<ALBEDO_LANES>(waiting, first, hits);
             scatter(
                 waiting,
                 first,
-                &material.albedo_lanes(&uv, &face, &ppm, noise),
+                &material.albedo_lanes(level, &uv, &face, &ppm, noise),
                 out,
             );
         } else {
@@ -410,7 +410,7 @@ fn flush(
             scatter(
                 waiting,
                 first,
-                &material.albedo_lanes(&uv, &face, &ppm, noise),
+                &material.albedo_lanes(level, &uv, &face, &ppm, noise),
                 out,
             );
         }

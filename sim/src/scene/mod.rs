@@ -9,12 +9,12 @@
 //!   preserves distances, so hit distances from all hierarchies compare directly.
 //! * The ground is the analytic plane `z = ground_height_m` (not in a BVH).
 
-pub mod bolted_panel;
 pub mod bvh;
 pub mod catenary;
 pub mod grounding_rod;
 pub mod noise;
 pub mod primitives;
+pub mod steel;
 pub mod substation;
 pub mod textures;
 

@@ -171,7 +171,7 @@ const INT_MAGIC: f32 = 12_582_912.0;
 /// Lattice index of an integral float (`floor` output) as wrapping u32; exact for
 /// `|xf| < 2^22` (lattice coordinates beyond that wrap deterministically).
 #[inline(always)]
-fn lattice_index(xf: f32) -> u32 {
+pub(crate) fn lattice_index(xf: f32) -> u32 {
     (xf + INT_MAGIC).to_bits().wrapping_sub(INT_MAGIC.to_bits())
 }
 

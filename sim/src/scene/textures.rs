@@ -25,11 +25,9 @@
 //! conductor strands and insulator discs are the repetitive cases; `Uniform` and lightly
 //! weathered paint are (nearly) textureless.
 
-use super::bolted_panel::{
-    CHIP_OUTLINE_M, RUST_RGB, SimdLevel, TexelLanes, bolted_panel, bolted_panel_at,
-};
 pub use super::noise::NoiseCache;
-use super::noise::{aa_step, band_weight, hash_u32, hash2, unit_f32, value2};
+use super::noise::{aa_step, band_weight, hash_u32, hash2, unit_f32};
+use super::steel::{self, SteelTexture, TexelLanes};
 
 /// Shading class of a material.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -186,29 +184,43 @@ impl Material {
         self.albedo_at_density(uv_m, face, 1.0 / footprint_m.max(MIN_FOOTPRINT_M), nc)
     }
 
-    /// Whether [`Self::albedo_lanes`] evaluates this material's texture in vector lanes
-    /// (faster than point by point); other textures gain nothing from batching.
+    /// The lane kernel of this material's texture, if it has one ([`steel`]): textures
+    /// without one gain nothing from batching.
+    #[must_use]
+    pub fn steel_texture(&self) -> Option<SteelTexture> {
+        match self.texture {
+            Texture::Painted { grime, rust } => Some(SteelTexture::Painted { grime, rust }),
+            Texture::BoltedPanel {
+                pitch_m,
+                bolt_radius_m,
+            } => Some(SteelTexture::BoltedPanel {
+                pitch_m,
+                bolt_radius_m,
+            }),
+            _ => None,
+        }
+    }
+
+    /// Whether [`Self::albedo_lanes`] evaluates this material's texture in vector lanes.
     #[must_use]
     pub fn has_lane_texture(&self) -> bool {
-        matches!(self.texture, Texture::BoltedPanel { .. })
+        self.steel_texture().is_some()
     }
 
     /// [`Self::albedo_at_density`] at `N` points at once (lane `i` is the albedo of point
-    /// `i`, bit for bit): one vector evaluation for textures with a lane kernel (see
-    /// [`Self::has_lane_texture`]), point by point for the others.
+    /// `i`, bit for bit): one vector evaluation at `level` (or the best level below it that
+    /// this CPU has) for textures with a lane kernel (see [`Self::has_lane_texture`]), point
+    /// by point for the others.
     #[must_use]
     pub fn albedo_lanes<const N: usize>(
         &self,
+        level: simd::Level,
         uv_m: &[[f64; 2]; N],
         face: &[u8; N],
         px_per_m: &[f32; N],
         nc: &mut NoiseCache,
     ) -> [[f32; 3]; N] {
-        let Texture::BoltedPanel {
-            pitch_m,
-            bolt_radius_m,
-        } = self.texture
-        else {
+        let Some(texture) = self.steel_texture() else {
             let mut out = [[0.0; 3]; N];
             for (i, o) in out.iter_mut().enumerate() {
                 *o = self.albedo_at_density(uv_m[i], face[i], px_per_m[i], nc);
@@ -219,13 +231,7 @@ impl Material {
         for i in 0..N {
             (t.u[i], t.v[i], t.px_per_m[i], t.seed[i]) = self.texel(uv_m[i], face[i], px_per_m[i]);
         }
-        bolted_panel_at(
-            SimdLevel::detected(),
-            &t,
-            self.base_rgb,
-            pitch_m,
-            bolt_radius_m,
-        )
+        steel::albedo_at(level, texture, &t, self.base_rgb)
     }
 
     /// The texture's lookup point: wrapped f32 coordinates, clamped pixel density and the
@@ -256,7 +262,6 @@ impl Material {
         let a = self.accent_rgb;
         match self.texture {
             Texture::Uniform => b,
-            Texture::Painted { grime, rust } => painted(nc, b, u, v, ppm, seed, grime, rust),
             Texture::Galvanized => {
                 let w = band_weight(0.008, ppm);
                 let c = nc.cellular2(u * (1.0 / 0.008), v * (1.0 / 0.008), seed);
@@ -276,18 +281,18 @@ impl Material {
                 let seam = 1.0 - 0.4 * (1.0 - aa_step(0.002, 0.6 - seam_d, ppm));
                 scale(b, tone * pore * seam)
             }
-            Texture::BoltedPanel {
-                pitch_m,
-                bolt_radius_m,
-            } => {
-                let t = TexelLanes {
-                    u: [u],
-                    v: [v],
-                    px_per_m: [ppm],
-                    seed: [seed],
-                };
-                bolted_panel(&t, b, pitch_m, bolt_radius_m)[0]
-            }
+            Texture::Painted { .. } | Texture::BoltedPanel { .. } => match self.steel_texture() {
+                Some(texture) => {
+                    let t = TexelLanes {
+                        u: [u],
+                        v: [v],
+                        px_per_m: [ppm],
+                        seed: [seed],
+                    };
+                    steel::albedo(texture, &t, b)[0]
+                }
+                None => b,
+            },
             Texture::Label { glyph_m } => label(nc, b, a, u, v, ppm, seed, glyph_m),
             Texture::Louvres { pitch_m } => {
                 let f = fract01(v / pitch_m);
@@ -382,79 +387,6 @@ fn mix(a: [f32; 3], b: [f32; 3], t: f32) -> [f32; 3] {
         a[1] + (b[1] - a[1]) * t,
         a[2] + (b[2] - a[2]) * t,
     ]
-}
-
-// Texture parameters are plain scalars next to the memo; a struct would only rename them.
-#[allow(clippy::too_many_arguments)]
-fn painted(
-    nc: &mut NoiseCache,
-    b: [f32; 3],
-    u: f32,
-    v: f32,
-    ppm: f32,
-    seed: u32,
-    grime: f32,
-    rust: f32,
-) -> [f32; 3] {
-    let g = 1.0 + 2.0 * grime * nc.fbm2(u, v, 0.5, 3, ppm, seed);
-    let mut c = scale(b, g);
-    if rust > 0.0 {
-        // Stains stretched vertically (run-off), threshold on fbm; dark rims give corners.
-        let s = nc.fbm2(u * 1.6, v * 0.6, 0.06, 5, ppm, seed ^ 0xabc) + 0.5;
-        let th = 0.5 + 0.3 * (1.0 - rust);
-        let inside = aa_step(th, s, 1.0 / (0.02 + 3.0 / ppm));
-        let rim =
-            (1.0 - ((s - th).abs() * (1.0 / 0.015))).clamp(0.0, 1.0) * band_weight(0.004, ppm);
-        let fine = 0.75
-            + 0.5 * value2(u * (1.0 / 0.003), v * (1.0 / 0.003), seed) * band_weight(0.003, ppm);
-        c = mix(c, scale(RUST_RGB, fine), inside);
-        c = scale(c, 1.0 - 0.45 * rim);
-        c = mix(
-            c,
-            scale(RUST_RGB, 0.7),
-            chips(nc, u, v, ppm, seed ^ 0x77, rust, || {
-                value2(
-                    u * (1.0 / CHIP_OUTLINE_M),
-                    v * (1.0 / CHIP_OUTLINE_M),
-                    seed ^ 0x77 ^ 0x9999,
-                )
-            }),
-        );
-    }
-    c
-}
-
-/// Coverage (0..1) of paint chips: 2-6 mm cellular flakes clustered where a low-frequency
-/// mask is high, `amount` in 0..1 scaling their density (corner-rich detail at the wrist
-/// working distance).
-/// `outline_noise` supplies `value2(u / 1.2 mm, v / 1.2 mm, seed ^ 0x9999)` (called only
-/// inside a chip; a caller may hand over a value it computed in a batch).
-fn chips(
-    nc: &mut NoiseCache,
-    u: f32,
-    v: f32,
-    ppm: f32,
-    seed: u32,
-    amount: f32,
-    outline_noise: impl FnOnce() -> f32,
-) -> f32 {
-    let cell = 0.005;
-    let w = band_weight(cell, ppm);
-    if w <= 0.0 || amount <= 0.0 {
-        return 0.0;
-    }
-    let mask = ((nc.fbm2(u, v, 0.12, 2, ppm, seed) + 0.5 - 0.5) * 5.0).clamp(0.0, 1.0) * amount;
-    if mask <= 0.0 {
-        return 0.0;
-    }
-    let Some(c) = nc.nearest_cell_below(u * (1.0 / cell), v * (1.0 / cell), seed ^ 0x1234, mask)
-    else {
-        return 0.0;
-    };
-    // Irregular outline: the cell distance perturbed by fine value noise.
-    let radius = 0.2 + 0.3 * unit_f32(hash_u32(c.id));
-    let wobble = 0.5 * (outline_noise() - 0.5) * band_weight(0.0012, ppm);
-    w * 0.85 * (1.0 - aa_step(radius, c.f1 + wobble, ppm * cell))
 }
 
 // Texture parameters are plain scalars next to the memo; a struct would only rename them.

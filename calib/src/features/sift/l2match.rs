@@ -24,7 +24,7 @@
 use rayon::prelude::*;
 
 use super::{SIFT_DESCRIPTOR_LEN, SiftDescriptor};
-use crate::features::{Match, simd};
+use crate::features::Match;
 
 /// Queries per rayon task.
 const CHUNK: usize = 32;

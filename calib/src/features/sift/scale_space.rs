@@ -12,7 +12,7 @@
 use rayon::prelude::*;
 
 use super::SiftParams;
-use crate::features::{GrayView, simd};
+use crate::features::GrayView;
 
 /// One octave: `s + 3` Gaussian images and `s + 2` DoG images of `width x height`.
 #[derive(Clone, Debug, Default)]

@@ -223,7 +223,7 @@ fn fast_atan2_is_within_a_hundredth_of_a_degree() {
 
 #[test]
 fn vector_width_does_not_change_features_or_matches() {
-    use crate::features::simd::{Level, with_max_level};
+    use simd::{Level, with_max_level};
     let a = textured_image(192, 160, 13);
     let b = warp_homography(&a, &similarity(0.3, 0.9, 96.0, 80.0, 0.0, 0.0), 192, 160, 0)
         .expect("warp");

@@ -1,6 +1,7 @@
-//! Runtime CPU dispatch for the integer kernels of the feature front end (FAST, pyramid
-//! resize, smoothing, Hamming matching). `unsafe` in `calib` is here and in the AVX-512 VBMI
-//! byte shuffles of the pyramid resize (`gray.rs`, gated by [`vbmi_allowed`]).
+//! Run-time CPU dispatch of rodlog's vector kernels: the feature front end's integer
+//! kernels (FAST, pyramid resize, smoothing, Hamming and L2 matching, in `calib`) and the
+//! renderer's lane textures (`sim`). The `unsafe` of both crates' dispatch is here (calib
+//! keeps its AVX-512 VBMI byte shuffles of the pyramid resize, gated by [`vbmi_allowed`]).
 //!
 //! The workspace builds for `x86-64-v2` (SSE4.2 + popcnt, DESIGN.md section 8) so the binary
 //! runs on any recent x86-64. The kernels are plain safe Rust written as whole-row,
@@ -10,9 +11,10 @@
 //! registers instead of 16-byte ones. This is OpenCV's scheme too (baseline SSE build with
 //! AVX2/AVX-512 dispatch of hot loops).
 //!
-//! Results do not depend on the path taken: the kernels are integer arithmetic (no float
-//! reassociation, no FMA contraction in Rust), so every path computes the same bits; the
-//! tests compare the paths ([`Level`], [`dispatch_at`]).
+//! Results do not depend on the path taken: the kernels are integer arithmetic or
+//! element-wise IEEE float arithmetic in a fixed order (no float reassociation, no FMA
+//! contraction in Rust), so every path computes the same bits; the tests compare the paths
+//! ([`Level`], [`dispatch_at`]).
 
 /// The instruction-set level a kernel runs at.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]

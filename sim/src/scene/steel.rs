@@ -1,22 +1,30 @@
-//! The bolted-panel texture ([`Texture::BoltedPanel`](super::Texture::BoltedPanel)) at `N`
-//! surface points at once: the equipment boxes and cabinet doors that fill the wrist
-//! camera's view during calibration, so the renderer's hottest texture.
+//! Painted steel ([`Texture::Painted`](super::Texture::Painted)) and bolted panels
+//! ([`Texture::BoltedPanel`](super::Texture::BoltedPanel)) at `N` surface points at once:
+//! the equipment boxes, cabinets and doors that fill the wrist camera's view during
+//! calibration, so the renderer's hottest textures.
 //!
-//! Panels `5 x 4` bolt pitches with dark seams, a tone per panel, bolts along the panel
-//! borders (washer, domed head lit from the upper left, dark rim), low-frequency mottling
-//! and grime (fbm), rust streaks running down from the bolts, and paint chips (cellular
-//! flakes where a low-frequency mask is high). Every feature is band-limited by the pixel
-//! density `px_per_m` (see [`band_weight`] and [`aa_step`]).
+//! * Painted steel: low-frequency grime (fbm) and, with `rust > 0`, run-off rust stains
+//!   (a threshold on vertically stretched fbm, with dark rims and fine texture) and paint
+//!   chips.
+//! * Bolted panels: panels `5 x 4` bolt pitches with dark seams, a tone per panel, bolts
+//!   along the panel borders (washer, domed head lit from the upper left, dark rim),
+//!   mottling and grime (fbm), rust streaks running down from the bolts, and paint chips.
+//! * Paint chips: 2-6 mm cellular flakes where a low-frequency mask is high, with outlines
+//!   perturbed by fine value noise (corner-rich detail at the wrist working distance).
+//!
+//! Every feature is band-limited by the pixel density `px_per_m` (see [`band_weight`] and
+//! [`aa_step`]).
 //!
 //! The points are lanes: every step is an element-wise loop over `[f32; N]` / `[u32; N]`
 //! arrays, branches are selects, and the noise comes from the point-lane functions of
-//! [`noise`](super::noise) (no memo), so the compiler turns the kernel into SSE vector code
-//! over the pixels of a tile, and lane `i` of any `N` is the same function of point `i`
-//! bit for bit (`N = 1` is the scalar texture; tested).
+//! [`noise`](super::noise) (no memo), so the compiler turns the kernels into vector code
+//! over the pixels of a tile ([`albedo_at`] runs them at the CPU's widest level through
+//! [`simd::dispatch_at`]), and lane `i` of any `N` at any level is the same function of
+//! point `i`, bit for bit (`N = 1` is the scalar texture; tested).
 
 use super::noise::{
-    aa_step, band_weight, cellular_nearest_points, fbm2_points, hash_u32, hash2, unit_f32,
-    value_lanes,
+    aa_step, band_weight, cellular_nearest_points, fbm2_points, hash_u32, hash2, lattice_index,
+    unit_f32, value_lanes,
 };
 
 /// Surface points of one texture lookup batch, one per lane.
@@ -43,25 +51,167 @@ impl<const N: usize> Default for TexelLanes<N> {
     }
 }
 
-/// Linear rust colour of the streaks (and of [`super::textures`]' rust stains).
-pub const RUST_RGB: [f32; 3] = [0.23, 0.09, 0.035];
+/// Linear rust colour of stains and streaks.
+const RUST_RGB: [f32; 3] = [0.23, 0.09, 0.035];
 /// Colour of bare metal under a paint chip.
 const CHIP_RGB: [f32; 3] = [0.07, 0.07, 0.065];
 /// Streak profiles `exp(x)` with `x` below minus this are no streak (1e-4: under a
 /// thousandth of a grey level once mixed).
 const STREAK_MIN_EXPONENT: f32 = 9.0;
 /// Wavelength of the noise perturbing paint-chip outlines (m).
-pub const CHIP_OUTLINE_M: f32 = 0.0012;
+const CHIP_OUTLINE_M: f32 = 0.0012;
 /// Paint-chip lattice cell (m): 2-6 mm flakes.
 const CHIP_CELL_M: f32 = 0.005;
-/// Fraction of chip-mask area that flakes (0..1).
-const CHIP_AMOUNT: f32 = 0.5;
+/// Fraction of chip-mask area that flakes on bolted panels (0..1).
+const PANEL_CHIP_AMOUNT: f32 = 0.5;
 
-/// Albedo (linear RGB, 0..1) of a bolted panel of base colour `b`, bolt pitch `pitch_m` and
-/// bolt head radius `r_m` at the points `t`.
+/// The steel textures of [`albedo_at`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SteelTexture {
+    /// [`Texture::Painted`](super::Texture::Painted).
+    Painted {
+        /// Grime contrast.
+        grime: f32,
+        /// Rust coverage (0..1).
+        rust: f32,
+    },
+    /// [`Texture::BoltedPanel`](super::Texture::BoltedPanel).
+    BoltedPanel {
+        /// Bolt spacing (m).
+        pitch_m: f32,
+        /// Bolt head radius (m).
+        bolt_radius_m: f32,
+    },
+}
+
+/// Albedo (linear RGB, 0..1) of `texture` with base colour `b` at the points `t`, computed
+/// at `level` or the best level below it that this CPU has (the same bits at every level).
+#[inline]
+#[must_use]
+pub fn albedo_at<const N: usize>(
+    level: simd::Level,
+    texture: SteelTexture,
+    t: &TexelLanes<N>,
+    b: [f32; 3],
+) -> [[f32; 3]; N] {
+    simd::dispatch_at(level, Albedo { texture, t, b })
+}
+
+/// [`albedo`] as a [`simd::Kernel`].
+struct Albedo<'a, const N: usize> {
+    texture: SteelTexture,
+    t: &'a TexelLanes<N>,
+    b: [f32; 3],
+}
+
+impl<const N: usize> simd::Kernel for Albedo<'_, N> {
+    type Output = [[f32; 3]; N];
+    #[inline(always)]
+    fn run(self) -> Self::Output {
+        albedo(self.texture, self.t, self.b)
+    }
+}
+
+/// Albedo of `texture` with base colour `b` at the points `t` at the build's baseline
+/// level (see [`albedo_at`]).
 #[inline(always)]
 #[must_use]
-pub fn bolted_panel<const N: usize>(
+pub fn albedo<const N: usize>(
+    texture: SteelTexture,
+    t: &TexelLanes<N>,
+    b: [f32; 3],
+) -> [[f32; 3]; N] {
+    match texture {
+        SteelTexture::Painted { grime, rust } => painted(t, b, grime, rust),
+        SteelTexture::BoltedPanel {
+            pitch_m,
+            bolt_radius_m,
+        } => bolted_panel(t, b, pitch_m, bolt_radius_m),
+    }
+}
+
+/// Painted steel of base colour `b`, grime contrast `grime` and rust coverage `rust`.
+#[inline(always)]
+fn painted<const N: usize>(t: &TexelLanes<N>, b: [f32; 3], grime: f32, rust: f32) -> [[f32; 3]; N] {
+    let (u, v, ppm, seed) = (&t.u, &t.v, &t.px_per_m, &t.seed);
+    let g = fbm_lanes(u, v, 0.5, 3, ppm, seed, 0);
+    let mut out = [[0.0_f32; 3]; N];
+    for i in 0..N {
+        out[i] = scale(b, 1.0 + 2.0 * grime * g[i]);
+    }
+    if rust > 0.0 {
+        rust_stains(t, rust, &mut out);
+    }
+    out
+}
+
+/// Rust stains and chips over painted steel `out` with rust coverage `rust` (> 0).
+#[inline(always)]
+fn rust_stains<const N: usize>(t: &TexelLanes<N>, rust: f32, out: &mut [[f32; 3]; N]) {
+    let (u, v, ppm, seed) = (&t.u, &t.v, &t.px_per_m, &t.seed);
+    // Stains stretched vertically (run-off), threshold on fbm; dark rims give corners.
+    let stain = fbm_lanes(
+        &u.map(|x| x * 1.6),
+        &v.map(|y| y * 0.6),
+        0.06,
+        5,
+        ppm,
+        seed,
+        0xabc,
+    );
+    let fine_noise = value_lanes(
+        u.map(|x| x * (1.0 / 0.003)),
+        v.map(|y| y * (1.0 / 0.003)),
+        *seed,
+    );
+    let chip = paint_chips(u, v, ppm, &seed.map(|s| s ^ 0x77), rust);
+    let th = 0.5 + 0.3 * (1.0 - rust);
+    for i in 0..N {
+        let s = stain[i] + 0.5;
+        let inside = aa_step(th, s, 1.0 / (0.02 + 3.0 / ppm[i]));
+        let rim =
+            (1.0 - ((s - th).abs() * (1.0 / 0.015))).clamp(0.0, 1.0) * band_weight(0.004, ppm[i]);
+        let fine = 0.75 + 0.5 * fine_noise[i] * band_weight(0.003, ppm[i]);
+        let mut c = mix(out[i], scale(RUST_RGB, fine), inside);
+        c = scale(c, 1.0 - 0.45 * rim);
+        out[i] = mix(c, scale(RUST_RGB, 0.7), chip[i]);
+    }
+}
+
+/// Coverage (0..1) of paint chips with seed `seed` (per lane) and density `amount` (0..1):
+/// cells of a 5 mm lattice whose unit value is below a low-frequency mask (0.12 m fbm)
+/// flake off, with an outline perturbed by 1.2 mm value noise.
+#[inline(always)]
+fn paint_chips<const N: usize>(
+    u: &[f32; N],
+    v: &[f32; N],
+    ppm: &[f32; N],
+    seed: &[u32; N],
+    amount: f32,
+) -> [f32; N] {
+    let mask_fbm = fbm_lanes(u, v, 0.12, 2, ppm, seed, 0);
+    let outline = value_lanes(
+        u.map(|x| x * (1.0 / CHIP_OUTLINE_M)),
+        v.map(|y| y * (1.0 / CHIP_OUTLINE_M)),
+        seed.map(|s| s ^ 0x9999),
+    );
+    let (f1, id) = cellular_nearest_lanes(u, v, seed);
+    let mut out = [0.0_f32; N];
+    for i in 0..N {
+        let w = band_weight(CHIP_CELL_M, ppm[i]);
+        let mask = ((mask_fbm[i] + 0.5 - 0.5) * 5.0).clamp(0.0, 1.0) * amount;
+        let radius = 0.2 + 0.3 * unit_f32(hash_u32(id[i]));
+        let wobble = 0.5 * (outline[i] - 0.5) * band_weight(CHIP_OUTLINE_M, ppm[i]);
+        let flake = w * 0.85 * (1.0 - aa_step(radius, f1[i] + wobble, ppm[i] * CHIP_CELL_M));
+        let chipped = w > 0.0 && amount > 0.0 && mask > 0.0 && unit_f32(id[i]) <= mask;
+        out[i] = if chipped { flake } else { 0.0 };
+    }
+    out
+}
+
+/// Bolted panel of base colour `b`, bolt pitch `pitch_m` and bolt head radius `r_m`.
+#[inline(always)]
+fn bolted_panel<const N: usize>(
     t: &TexelLanes<N>,
     b: [f32; 3],
     pitch_m: f32,
@@ -88,8 +238,8 @@ pub fn bolted_panel<const N: usize>(
     let mut col_u = [0.0_f32; N];
     let mut above = [0.0_f32; N];
     for i in 0..N {
-        let pi = (u[i] * (0.2 * inv_pitch)).floor() as i32;
-        let pj = (v[i] * (0.25 * inv_pitch)).floor() as i32;
+        let pi = lattice_index((u[i] * (0.2 * inv_pitch)).floor()) as i32;
+        let pj = lattice_index((v[i] * (0.25 * inv_pitch)).floor()) as i32;
         let (x, y) = (u[i] - pi as f32 * wp, v[i] - pj as f32 * hp);
         (pu[i], pv[i]) = (x, y);
         panel_key[i] = (pi.wrapping_mul(131) ^ pj) as u32;
@@ -114,22 +264,15 @@ pub fn bolted_panel<const N: usize>(
     }
 
     // Low-frequency mottling (0.3 m) and grime (12 mm), the streak modulation (4 x 20 mm)
-    // and the chips' mask (0.12 m) and outline wobble (1.2 mm).
-    let chip_seed = seed.map(|s| s ^ 0x3c3c);
+    // and the chips.
     let mottle = fbm_lanes(u, v, 0.3, 3, ppm, seed, 1);
     let grime = fbm_lanes(u, v, 0.012, 2, ppm, seed, 2);
-    let mask_fbm = fbm_lanes(u, v, 0.12, 2, ppm, &chip_seed, 0);
     let streak_noise = value_lanes(
         u.map(|x| x * (1.0 / 0.004)),
         v.map(|y| y * (1.0 / 0.02)),
         *seed,
     );
-    let outline = value_lanes(
-        u.map(|x| x * (1.0 / CHIP_OUTLINE_M)),
-        v.map(|y| y * (1.0 / CHIP_OUTLINE_M)),
-        chip_seed.map(|s| s ^ 0x9999),
-    );
-    let (chip_f1, chip_id) = cellular_nearest_lanes(u, v, &chip_seed);
+    let chip = paint_chips(u, v, ppm, &seed.map(|s| s ^ 0x3c3c), PANEL_CHIP_AMOUNT);
 
     // Rust streaks run down (-v) from the top-row bolts and from the side-column bolts above
     // the point; each bolt bleeds with its own strength `s_b` and profile
@@ -144,12 +287,12 @@ pub fn bolted_panel<const N: usize>(
             (
                 pu[i] - top_u[i],
                 pv[i] - (hp - margin),
-                (top_u[i] * inv_pitch) as i32,
+                index_of(top_u[i] * inv_pitch),
             ),
             (
                 pu[i] - col_u[i],
                 pv[i] - above[i],
-                1000 + (above[i] * inv_pitch) as i32 + (col_u[i] * inv_pitch) as i32 * 7,
+                1000 + index_of(above[i] * inv_pitch) + index_of(col_u[i] * inv_pitch) * 7,
             ),
         ];
         for (k, (sdu, sdv, id)) in sources.into_iter().enumerate() {
@@ -180,19 +323,8 @@ pub fn bolted_panel<const N: usize>(
             0.0
         };
 
-        // Paint chips: cells whose unit value is below the mask flake off, with an
-        // outline perturbed by fine noise.
-        let w_chip = band_weight(CHIP_CELL_M, ppm[i]);
-        let mask = ((mask_fbm[i] + 0.5 - 0.5) * 5.0).clamp(0.0, 1.0) * CHIP_AMOUNT;
-        let radius = 0.2 + 0.3 * unit_f32(hash_u32(chip_id[i]));
-        let wobble = 0.5 * (outline[i] - 0.5) * band_weight(CHIP_OUTLINE_M, ppm[i]);
-        let flake =
-            w_chip * 0.85 * (1.0 - aa_step(radius, chip_f1[i] + wobble, ppm[i] * CHIP_CELL_M));
-        let chipped = w_chip > 0.0 && mask > 0.0 && unit_f32(chip_id[i]) <= mask;
-        let chip = if chipped { flake } else { 0.0 };
-
         let mut c = mix(scale(b, k), RUST_RGB, rust_t);
-        c = mix(c, CHIP_RGB, chip);
+        c = mix(c, CHIP_RGB, chip[i]);
         // Washer ring, then a domed head lit from the upper left.
         let head = 1.0 - aa_step(r * 0.75, d[i], ppm[i]);
         let washer = 1.0 - aa_step(r, d[i], ppm[i]);
@@ -204,108 +336,6 @@ pub fn bolted_panel<const N: usize>(
         out[i] = if d[i] < 1.4 * r { bolted } else { c };
     }
     out
-}
-
-/// Vector level of [`bolted_panel_at`]: the build's baseline (`x86-64-v2`: SSE4.1), AVX2
-/// or AVX-512, detected at run time and capped by the `RODLOG_SIMD` environment variable
-/// (`baseline`, `avx2`, `avx512`; the scheme of `calib`'s feature kernels, for A/B runs of
-/// one build).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-pub enum SimdLevel {
-    /// SSE4.1 (the workspace's `x86-64-v2` target).
-    Baseline,
-    /// AVX2 (the vector part of `x86-64-v3`).
-    Avx2,
-    /// AVX-512 F/BW/DQ/VL.
-    Avx512,
-}
-
-impl SimdLevel {
-    /// The best level of this CPU, capped by `RODLOG_SIMD` (read once).
-    pub fn detected() -> Self {
-        static LEVEL: std::sync::OnceLock<SimdLevel> = std::sync::OnceLock::new();
-        *LEVEL.get_or_init(|| {
-            let cap = match std::env::var("RODLOG_SIMD").as_deref() {
-                Ok("baseline") => Self::Baseline,
-                Ok("avx2") => Self::Avx2,
-                _ => Self::Avx512,
-            };
-            Self::of_cpu().min(cap)
-        })
-    }
-
-    fn of_cpu() -> Self {
-        #[cfg(target_arch = "x86_64")]
-        {
-            let avx2 = std::arch::is_x86_feature_detected!("avx2")
-                && std::arch::is_x86_feature_detected!("fma");
-            if avx2
-                && std::arch::is_x86_feature_detected!("avx512f")
-                && std::arch::is_x86_feature_detected!("avx512bw")
-                && std::arch::is_x86_feature_detected!("avx512dq")
-                && std::arch::is_x86_feature_detected!("avx512vl")
-            {
-                return Self::Avx512;
-            }
-            if avx2 {
-                return Self::Avx2;
-            }
-        }
-        Self::Baseline
-    }
-}
-
-/// [`bolted_panel`] compiled for `level` (or the best level below it that this CPU has):
-/// the same bits at every level (element-wise IEEE arithmetic; Rust never fuses
-/// multiply-adds), only wider vectors.
-// Calling `#[target_feature]` functions, each guarded by the run-time detection.
-#[allow(unsafe_code)]
-#[inline]
-#[must_use]
-pub fn bolted_panel_at<const N: usize>(
-    level: SimdLevel,
-    t: &TexelLanes<N>,
-    b: [f32; 3],
-    pitch_m: f32,
-    r_m: f32,
-) -> [[f32; 3]; N] {
-    #[cfg(target_arch = "x86_64")]
-    {
-        match level.min(SimdLevel::detected()) {
-            // SAFETY: `detected()` found every feature `bolted_panel_avx512` enables.
-            SimdLevel::Avx512 => unsafe { bolted_panel_avx512(t, b, pitch_m, r_m) },
-            // SAFETY: as above, for `bolted_panel_avx2`.
-            SimdLevel::Avx2 => unsafe { bolted_panel_avx2(t, b, pitch_m, r_m) },
-            SimdLevel::Baseline => bolted_panel(t, b, pitch_m, r_m),
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let _ = level;
-        bolted_panel(t, b, pitch_m, r_m)
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn bolted_panel_avx2<const N: usize>(
-    t: &TexelLanes<N>,
-    b: [f32; 3],
-    pitch_m: f32,
-    r_m: f32,
-) -> [[f32; 3]; N] {
-    bolted_panel(t, b, pitch_m, r_m)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma,avx512f,avx512bw,avx512dq,avx512vl")]
-fn bolted_panel_avx512<const N: usize>(
-    t: &TexelLanes<N>,
-    b: [f32; 3],
-    pitch_m: f32,
-    r_m: f32,
-) -> [[f32; 3]; N] {
-    bolted_panel(t, b, pitch_m, r_m)
 }
 
 /// [`fbm2_points`] with the seed of each lane `seed[i] ^ salt`: the points of a batch
@@ -356,6 +386,13 @@ fn cellular_nearest_lanes<const N: usize>(
     (f1, id)
 }
 
+/// `x as i32` for `0 <= x < 2^22` (the bolt indices): floor and the exponent-bias trick of
+/// [`lattice_index`], which vectorises, unlike the saturating conversion.
+#[inline(always)]
+fn index_of(x: f32) -> i32 {
+    lattice_index(x.floor()) as i32
+}
+
 /// `e^x` for `x` in `[-80, 80]` in lanes (plain arithmetic, so it vectorises and gives the
 /// same bits everywhere): `x = n ln 2 + f` with `n = round(x / ln 2)` (Cody-Waite split
 /// of `ln 2`), `|f| <= ln 2 / 2`, `e^f` by its degree-6 Taylor polynomial (relative error
@@ -373,7 +410,7 @@ fn exp_lanes<const N: usize>(x: [f32; N]) -> [f32; N] {
             + f * (1.0
                 + f * (0.5
                     + f * (1.0 / 6.0 + f * (1.0 / 24.0 + f * (1.0 / 120.0 + f * (1.0 / 720.0))))));
-        let two_n = f32::from_bits(((n as i32 + 127) as u32) << 23);
+        let two_n = f32::from_bits(lattice_index(n).wrapping_add(127) << 23);
         out[i] = p * two_n;
     }
     out
@@ -414,28 +451,56 @@ mod tests {
         t
     }
 
-    /// Lane `i` of an 8-lane batch is the 1-lane texture at point `i`, bit for bit, with
-    /// one face or mixed faces per batch.
+    const TEXTURES: [SteelTexture; 3] = [
+        SteelTexture::Painted {
+            grime: 0.08,
+            rust: 0.5,
+        },
+        SteelTexture::Painted {
+            grime: 0.1,
+            rust: 0.0,
+        },
+        SteelTexture::BoltedPanel {
+            pitch_m: 0.075,
+            bolt_radius_m: 0.0075,
+        },
+    ];
+
+    /// Lane `i` of `wide` is the 1-lane texture at point `i` of `t`, bit for bit.
+    fn assert_lanes_are_points<const N: usize>(
+        texture: SteelTexture,
+        t: &TexelLanes<N>,
+        b: [f32; 3],
+        wide: &[[f32; 3]; N],
+        what: &str,
+    ) {
+        for (i, w) in wide.iter().enumerate() {
+            let one = TexelLanes {
+                u: [t.u[i]],
+                v: [t.v[i]],
+                px_per_m: [t.px_per_m[i]],
+                seed: [t.seed[i]],
+            };
+            let s = albedo(texture, &one, b)[0];
+            assert_eq!(
+                w.map(f32::to_bits),
+                s.map(f32::to_bits),
+                "{texture:?} {what} lane {i}"
+            );
+            assert!(s.iter().all(|x| (0.0..=1.0).contains(x)), "{s:?}");
+        }
+    }
+
+    /// Lane `i` of an 8-lane batch is the 1-lane texture at point `i`, with one face or
+    /// mixed faces per batch.
     #[test]
     fn lanes_equal_the_scalar_texture_bit_for_bit() {
         let b = [0.4, 0.42, 0.37];
-        for k in 0..3000 {
-            let t = points::<8>(k, k % 3 == 0);
-            let wide = bolted_panel(&t, b, 0.075, 0.0075);
-            for (i, w) in wide.iter().enumerate() {
-                let one = TexelLanes {
-                    u: [t.u[i]],
-                    v: [t.v[i]],
-                    px_per_m: [t.px_per_m[i]],
-                    seed: [t.seed[i]],
-                };
-                let s = bolted_panel(&one, b, 0.075, 0.0075)[0];
-                assert_eq!(
-                    w.map(f32::to_bits),
-                    s.map(f32::to_bits),
-                    "batch {k} lane {i}"
-                );
-                assert!(s.iter().all(|x| (0.0..=1.0).contains(x)), "{s:?}");
+        for texture in TEXTURES {
+            for k in 0..2000 {
+                let t = points::<8>(k, k % 3 == 0);
+                let wide = albedo(texture, &t, b);
+                assert_lanes_are_points(texture, &t, b, &wide, &format!("batch {k}"));
             }
         }
     }
@@ -444,23 +509,16 @@ mod tests {
     #[test]
     fn every_simd_level_gives_the_same_bits() {
         let b = [0.45, 0.47, 0.42];
-        for k in 0..500 {
-            let t = points::<16>(k, k % 4 == 1);
-            for level in [SimdLevel::Baseline, SimdLevel::Avx2, SimdLevel::Avx512] {
-                let wide = bolted_panel_at(level, &t, b, 0.09, 0.006);
-                for (i, w) in wide.iter().enumerate() {
-                    let one = TexelLanes {
-                        u: [t.u[i]],
-                        v: [t.v[i]],
-                        px_per_m: [t.px_per_m[i]],
-                        seed: [t.seed[i]],
-                    };
-                    let s = bolted_panel(&one, b, 0.09, 0.006)[0];
-                    assert_eq!(
-                        w.map(f32::to_bits),
-                        s.map(f32::to_bits),
-                        "{level:?} batch {k} lane {i}"
-                    );
+        for texture in TEXTURES {
+            for k in 0..300 {
+                let t = points::<16>(k, k % 4 == 1);
+                for level in [
+                    simd::Level::Baseline,
+                    simd::Level::Avx2,
+                    simd::Level::Avx512,
+                ] {
+                    let wide = albedo_at(level, texture, &t, b);
+                    assert_lanes_are_points(texture, &t, b, &wide, &format!("{level:?} {k}"));
                 }
             }
         }
@@ -495,7 +553,7 @@ mod tests {
                     t.u[i] = (col * 8 + i) as f32 * 0.001;
                     t.v[i] = row as f32 * 0.001;
                 }
-                for c in bolted_panel(&t, b, 0.075, 0.0075) {
+                for c in albedo(TEXTURES[2], &t, b) {
                     dark += usize::from(c[0] < 0.15);
                     rusty += usize::from(c[0] > 1.3 * c[2]);
                     bright += usize::from(c[1] > 0.5);
