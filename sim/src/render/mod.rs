@@ -52,7 +52,8 @@ use nalgebra::{Isometry3, Matrix3, Point3, Vector3};
 use rayon::prelude::*;
 
 pub use camera_model::{
-    CameraError, CameraIntrinsics, RayTable, unit_direction, world_from_camera_looking_at,
+    CameraError, CameraIntrinsics, RAY_TILE, RayTable, RayTile, unit_direction,
+    world_from_camera_looking_at,
 };
 pub use depth_sensor::{DepthSensorParams, depth_to_mm};
 pub use light::LightConditions;
@@ -60,6 +61,7 @@ pub use rgb_sensor::{Exposure, RgbSensorParams};
 
 use crate::scene::textures::NoiseCache;
 use crate::scene::{Candidates, Hit, Ray, Scene, Slab};
+use camera_model::grow;
 use depth_sensor::DepthSample;
 use rgb_sensor::{HISTOGRAM_BINS, histogram_bin};
 use shading::{
@@ -217,7 +219,7 @@ pub fn render_rgbd(
 const RGB_SALT: u64 = 0x5eed_c0de_0000_0001;
 /// Edge of the square pixel tiles whose rays share culled candidate lists (px); a band of
 /// `TILE` rows is one parallel work item.
-const TILE: usize = 16;
+const TILE: usize = RAY_TILE;
 /// Most candidate primitives a tile keeps before falling back to BVH traversal per ray.
 pub const CULL_LIMIT: usize = 48;
 /// Widening of tile frustums (normalised image coordinates, ~1e-4 px).
@@ -318,10 +320,9 @@ fn primitive_edge(keys: &[u32], w: usize, h: usize, col: usize, row: usize) -> b
         || (row + 1 < h && differs(p + w))
 }
 
-/// Rows `row0 .. row0 + rows` of a `width`-pixel image.
+/// The band of tile rows from `row0` of a `width`-pixel image.
 struct Band {
     row0: usize,
-    rows: usize,
     width: usize,
 }
 
@@ -335,15 +336,6 @@ struct TileRay {
     ray: Ray,
     dz: f64,
     hit: Option<Hit>,
-}
-
-/// `[min, max]` grown by `x` (finite values: plain comparisons, one `minsd`/`maxsd` each).
-#[inline(always)]
-fn grow(range: [f64; 2], x: f64) -> [f64; 2] {
-    [
-        if x < range[0] { x } else { range[0] },
-        if x > range[1] { x } else { range[1] },
-    ]
 }
 
 /// Per-thread buffers of [`render_tile`].
@@ -473,8 +465,7 @@ fn render_tile(
     scene: &Scene,
     cam: &Cam,
     setup: &LightSetup,
-    table: &[[f64; 2]],
-    dirs: &[[f64; 3]],
+    tile: &RayTile<'_>,
     band: &Band,
     cols: std::ops::Range<usize>,
     sc: &mut TileScratch,
@@ -483,19 +474,11 @@ fn render_tile(
     let w = band.width;
     let o = [cam.origin.x, cam.origin.y, cam.origin.z];
     sc.rays.clear();
-    let mut x_range = [f64::INFINITY, f64::NEG_INFINITY];
-    let mut y_range = [f64::INFINITY, f64::NEG_INFINITY];
-    for r in 0..band.rows {
-        for c in cols.clone() {
-            let j = r * w + c;
-            let p = band.row0 * w + j;
-            let xy = table.get(p).copied().unwrap_or([0.0; 2]);
-            x_range = grow(x_range, xy[0]);
-            y_range = grow(y_range, xy[1]);
-            let d = dirs.get(p).copied().unwrap_or_else(|| unit_direction(xy));
+    for (r, row_dirs) in tile.dirs.chunks(cols.len().max(1)).enumerate() {
+        for (c, &d) in cols.clone().zip(row_dirs) {
             let (ray, dz) = cam.ray_along(d);
             sc.rays.push(TileRay {
-                j,
+                j: r * w + c,
                 col: c as u32,
                 row: (band.row0 + r) as u32,
                 ray,
@@ -504,7 +487,7 @@ fn render_tile(
             });
         }
     }
-    let frustum = frustum(cam, x_range, y_range);
+    let frustum = frustum(cam, tile.x_range, tile.y_range);
     scene.cull(&frustum, o, o, CULL_LIMIT, &mut sc.primary);
     // The previous ray's winner is tested first (neighbours mostly hit the same primitive).
     let mut hint = None;
@@ -582,17 +565,18 @@ pub fn render_rgbd_with_rays(
             let mut scratch = TileScratch::default();
             let band = Band {
                 row0: ci * TILE,
-                rows: rad.len() / w.max(1),
                 width: w,
             };
             for col0 in (0..w).step_by(TILE) {
                 let cols = col0..(col0 + TILE).min(w);
+                let Some(tile) = rays.tile(col0, band.row0) else {
+                    continue;
+                };
                 render_tile(
                     scene,
                     &cam,
                     &setup,
-                    table,
-                    rays.unit_directions(),
+                    &tile,
                     &band,
                     cols,
                     &mut scratch,
@@ -893,19 +877,17 @@ mod tests {
                 let setup = LightSetup::new(&LightConditions::from_hour(hour), true);
                 let mut scratch = TileScratch::default();
                 for row0 in (0..h).step_by(TILE) {
-                    let band = Band {
-                        row0,
-                        rows: TILE.min(h - row0),
-                        width: w,
-                    };
+                    let band = Band { row0, width: w };
                     for col0 in (0..w).step_by(TILE) {
                         let cols = col0..(col0 + TILE).min(w);
+                        let Some(tile) = rays.tile(col0, row0) else {
+                            panic!("tile {col0} {row0}");
+                        };
                         render_tile(
                             &scene,
                             &cam,
                             &setup,
-                            table,
-                            rays.unit_directions(),
+                            &tile,
                             &band,
                             cols,
                             &mut scratch,
