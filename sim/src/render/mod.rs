@@ -62,7 +62,6 @@ pub use rgb_sensor::{Exposure, RgbSensorParams};
 use crate::scene::textures::NoiseCache;
 use crate::scene::{Candidates, Hit, Ray, Scene, Slab};
 use camera_model::grow;
-use depth_sensor::DepthSample;
 use rgb_sensor::{HISTOGRAM_BINS, histogram_bin};
 use shading::{
     AlbedoBatch, LightSetup, SHADOW_BIAS_M, Shaded, SurfaceHit, TraceHints, shade_sky, trace_culled,
@@ -469,7 +468,7 @@ fn render_tile(
     band: &Band,
     cols: std::ops::Range<usize>,
     sc: &mut TileScratch,
-    mut out: impl FnMut(usize, u32, u32, &Shaded, f64),
+    mut out: impl FnMut(usize, u32, u32, &Shaded),
 ) {
     let w = band.width;
     let o = [cam.origin.x, cam.origin.y, cam.origin.z];
@@ -514,7 +513,7 @@ fn render_tile(
     sc.batch.run(scene, &sc.hits, &mut sc.noise, &mut sc.albedo);
     let shadow = &sc.shadow;
     for ((r, surface), &albedo) in sc.rays.iter().zip(&sc.hits).zip(&sc.albedo) {
-        let s = match (surface, &r.hit) {
+        let mut s = match (surface, &r.hit) {
             (Some(h), _) => h.shade(setup, &r.ray, albedo, scene, |sr| {
                 scene.occluded_culled(sr, 0.0, f64::INFINITY, shadow)
             }),
@@ -524,7 +523,13 @@ fn render_tile(
                 .err()
                 .unwrap_or_else(|| shade_sky(setup, &r.ray)),
         };
-        out(r.j, r.col, r.row, &s, r.dz);
+        // Depth along the optical axis, set in place: the sensor then reads the sample where
+        // shading wrote it (copying it out would reload fields just stored).
+        let z_m = s.t_m * r.dz;
+        if let Some(ds) = s.depth.as_mut() {
+            ds.z_m = z_m;
+        }
+        out(r.j, r.col, r.row, &s);
     }
 }
 
@@ -580,7 +585,7 @@ pub fn render_rgbd_with_rays(
                     &band,
                     cols,
                     &mut scratch,
-                    |j, col, row, s: &Shaded, dz| {
+                    |j, col, row, s: &Shaded| {
                         let p = band.row0 * w + j;
                         if let Some(r) = rad.get_mut(j) {
                             *r = s.radiance;
@@ -588,14 +593,10 @@ pub fn render_rgbd_with_rays(
                         if let Some(kk) = key.get_mut(j) {
                             *kk = s.key;
                         }
-                        if let (Some(d), Some(ds)) = (dep.get_mut(j), s.depth) {
-                            let sample = DepthSample {
-                                z_m: s.t_m * dz,
-                                ..ds
-                            };
+                        if let (Some(d), Some(sample)) = (dep.get_mut(j), &s.depth) {
                             *d = sensor.depth.measure_with(
                                 max_incidence_cos,
-                                &sample,
+                                sample,
                                 seed,
                                 p as u64,
                                 col,
@@ -891,7 +892,7 @@ mod tests {
                             &band,
                             cols,
                             &mut scratch,
-                            |j, _, _, s, _| {
+                            |j, _, _, s| {
                                 let p = row0 * w + j;
                                 let (ray, _) = cam.ray(table[p]);
                                 let mut hints = TraceHints::default();
