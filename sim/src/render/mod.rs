@@ -64,7 +64,8 @@ use crate::scene::{Candidates, Hit, Ray, Scene, Slab};
 use camera_model::grow;
 use rgb_sensor::{HISTOGRAM_BINS, histogram_bin};
 use shading::{
-    AlbedoBatch, LightSetup, SHADOW_BIAS_M, Shaded, SurfaceHit, TraceHints, shade_sky, trace_culled,
+    AlbedoBatch, LightSetup, SHADOW_BIAS_M, Shaded, SurfaceHit, TraceHints, shade_sky,
+    shade_without_surface, trace_culled,
 };
 
 /// Errors of rendering.
@@ -508,7 +509,7 @@ fn render_tile(
     sc.hits.extend(sc.rays.iter().map(|r| {
         r.hit
             .as_ref()
-            .and_then(|h| SurfaceHit::new(scene, &r.ray, h, cam.footprint_per_m).ok())
+            .and_then(|h| SurfaceHit::new(scene, &r.ray, h, cam.footprint_per_m))
     }));
     sc.batch.run(scene, &sc.hits, &mut sc.noise, &mut sc.albedo);
     let shadow = &sc.shadow;
@@ -518,10 +519,7 @@ fn render_tile(
                 scene.occluded_culled(sr, 0.0, f64::INFINITY, shadow)
             }),
             (None, None) => shade_sky(setup, &r.ray),
-            // A hit without a surface (not produced by a valid scene): its black shading.
-            (None, Some(h)) => SurfaceHit::new(scene, &r.ray, h, cam.footprint_per_m)
-                .err()
-                .unwrap_or_else(|| shade_sky(setup, &r.ray)),
+            (None, Some(h)) => shade_without_surface(h),
         };
         // Depth along the optical axis, set in place: the sensor then reads the sample where
         // shading wrote it (copying it out would reload fields just stored).

@@ -15,7 +15,7 @@ use nalgebra::{Point3, Vector3};
 use super::depth_sensor::DepthSample;
 use super::light::{LightConditions, luminance};
 use crate::scene::textures::NoiseCache;
-use crate::scene::{Candidates, Hit, MaterialId, Ray, Scene, Shading, SurfacePoint};
+use crate::scene::{Candidates, Hit, MaterialId, Ray, Scene, Shading};
 
 /// Albedo of the surroundings bouncing light up onto downward-facing surfaces.
 pub const GROUND_BOUNCE_ALBEDO: f64 = 0.2;
@@ -172,12 +172,30 @@ pub fn shade_hit(
     occluded: impl FnMut(&Ray) -> bool,
 ) -> Shaded {
     match SurfaceHit::new(scene, ray, hit, footprint_per_m) {
-        Ok(s) => {
+        Some(s) => {
             let albedo = s.albedo(scene, noise);
             s.shade(setup, ray, albedo, scene, occluded)
         }
-        Err(black) => black,
+        None => shade_without_surface(hit),
     }
+}
+
+/// Shading of a hit whose primitive has no surface (not produced by a valid scene):
+/// black, without depth.
+#[must_use]
+pub fn shade_without_surface(hit: &Hit) -> Shaded {
+    Shaded {
+        radiance: [0.0; 3],
+        key: primitive_key(hit),
+        depth: None,
+        t_m: hit.t_m,
+    }
+}
+
+/// The hashed primitive key of a hit (never the sky's `u32::MAX`).
+#[inline]
+fn primitive_key(hit: &Hit) -> u32 {
+    crate::scene::noise::hash_u32((hit.key() ^ (hit.key() >> 29)) as u32).min(u32::MAX - 1)
 }
 
 /// A primary hit between intersection and shading: its surface point, the normal turned
@@ -186,27 +204,25 @@ pub fn shade_hit(
 /// ([`AlbedoBatch`]) before lighting each pixel ([`SurfaceHit::shade`]).
 #[derive(Clone, Copy, Debug)]
 pub struct SurfaceHit {
-    sp: SurfacePoint,
+    point: Point3<f64>,
+    /// Unit normal turned towards the ray.
     normal: Vector3<f64>,
+    uv_m: [f64; 2],
     cos_i: f64,
+    t_m: f64,
     px_per_m: f32,
     key: u32,
-    t_m: f64,
+    material: MaterialId,
+    face: u8,
 }
 
 impl SurfaceHit {
-    /// The surface of `hit`; `Err` is the shading of a hit without one (black, no depth).
-    pub fn new(scene: &Scene, ray: &Ray, hit: &Hit, footprint_per_m: f64) -> Result<Self, Shaded> {
-        let key =
-            crate::scene::noise::hash_u32((hit.key() ^ (hit.key() >> 29)) as u32).min(u32::MAX - 1);
-        let Some(sp) = scene.surface(ray, hit) else {
-            return Err(Shaded {
-                radiance: [0.0; 3],
-                key,
-                depth: None,
-                t_m: hit.t_m,
-            });
-        };
+    /// The surface of `hit` (`None` for a primitive without one: see
+    /// [`shade_without_surface`]).
+    #[inline]
+    #[must_use]
+    pub fn new(scene: &Scene, ray: &Ray, hit: &Hit, footprint_per_m: f64) -> Option<Self> {
+        let sp = scene.surface(ray, hit)?;
         let mut normal = sp.normal;
         let mut cos_i = -normal.dot(&ray.dir);
         if cos_i < 0.0 {
@@ -215,24 +231,24 @@ impl SurfaceHit {
         }
         // Pixels per metre on the surface (the footprint's reciprocal: one division).
         let px_per_m = (cos_i.max(0.2) / (hit.t_m * footprint_per_m)) as f32;
-        Ok(Self {
-            sp,
+        Some(Self {
+            point: sp.point,
             normal,
+            uv_m: sp.uv_m,
             cos_i,
-            px_per_m,
-            key,
             t_m: hit.t_m,
+            px_per_m,
+            key: primitive_key(hit),
+            material: sp.material,
+            face: sp.face,
         })
     }
 
     /// The texture's albedo here (one lookup; [`AlbedoBatch`] looks many up at once).
     pub fn albedo(&self, scene: &Scene, noise: &mut NoiseCache) -> [f32; 3] {
-        scene.material(self.sp.material).albedo_at_density(
-            self.sp.uv_m,
-            self.sp.face,
-            self.px_per_m,
-            noise,
-        )
+        scene
+            .material(self.material)
+            .albedo_at_density(self.uv_m, self.face, self.px_per_m, noise)
     }
 
     /// Radiance of this hit of `ray` with the given texture albedo (module docs);
@@ -245,8 +261,8 @@ impl SurfaceHit {
         scene: &Scene,
         mut occluded: impl FnMut(&Ray) -> bool,
     ) -> Shaded {
-        let (sp, n, cos_i, key) = (&self.sp, self.normal, self.cos_i, self.key);
-        let mat = scene.material(sp.material);
+        let (n, cos_i, key) = (self.normal, self.cos_i, self.key);
+        let mat = scene.material(self.material);
         let a = [
             f64::from(albedo[0]),
             f64::from(albedo[1]),
@@ -257,7 +273,7 @@ impl SurfaceHit {
         let mut e_direct = 0.0;
         if ndl > 0.0 && setup.e_sun > 0.0 {
             let visible = !setup.shadows || {
-                let origin: Point3<f64> = sp.point + n * SHADOW_BIAS_M;
+                let origin: Point3<f64> = self.point + n * SHADOW_BIAS_M;
                 !occluded(&Ray {
                     origin,
                     dir: setup.sun_dir,
@@ -352,7 +368,7 @@ impl AlbedoBatch {
         }
         for (i, h) in hits.iter().enumerate() {
             let Some(h) = h else { continue };
-            let id = h.sp.material;
+            let id = h.material;
             if !scene.material(id).has_lane_texture() {
                 if let Some(o) = out.get_mut(i) {
                     *o = h.albedo(scene, noise);
@@ -442,7 +458,7 @@ fn gather<const N: usize>(
             last = Some(h);
         }
         if let Some(h) = last {
-            (uv[k], face[k], ppm[k]) = (h.sp.uv_m, h.sp.face, h.px_per_m);
+            (uv[k], face[k], ppm[k]) = (h.uv_m, h.face, h.px_per_m);
         }
     }
     (uv, face, ppm)
