@@ -190,6 +190,17 @@ fn paint_chips<const N: usize>(
     amount: f32,
 ) -> [f32; N] {
     let mask_fbm = fbm_lanes(u, v, 0.12, 2, ppm, seed, 0);
+    let mut mask = [0.0_f32; N];
+    let mut any = false;
+    for i in 0..N {
+        mask[i] = ((mask_fbm[i] + 0.5 - 0.5) * 5.0).clamp(0.0, 1.0) * amount;
+        any |= band_weight(CHIP_CELL_M, ppm[i]) > 0.0 && mask[i] > 0.0;
+    }
+    // The mask is low-frequency: most batches lie wholly outside it (no chip in any lane:
+    // the cells and outlines below would all be selected away).
+    if !any || amount <= 0.0 {
+        return [0.0; N];
+    }
     let outline = value_lanes(
         u.map(|x| x * (1.0 / CHIP_OUTLINE_M)),
         v.map(|y| y * (1.0 / CHIP_OUTLINE_M)),
@@ -199,11 +210,10 @@ fn paint_chips<const N: usize>(
     let mut out = [0.0_f32; N];
     for i in 0..N {
         let w = band_weight(CHIP_CELL_M, ppm[i]);
-        let mask = ((mask_fbm[i] + 0.5 - 0.5) * 5.0).clamp(0.0, 1.0) * amount;
         let radius = 0.2 + 0.3 * unit_f32(hash_u32(id[i]));
         let wobble = 0.5 * (outline[i] - 0.5) * band_weight(CHIP_OUTLINE_M, ppm[i]);
         let flake = w * 0.85 * (1.0 - aa_step(radius, f1[i] + wobble, ppm[i] * CHIP_CELL_M));
-        let chipped = w > 0.0 && amount > 0.0 && mask > 0.0 && unit_f32(id[i]) <= mask;
+        let chipped = w > 0.0 && mask[i] > 0.0 && unit_f32(id[i]) <= mask[i];
         out[i] = if chipped { flake } else { 0.0 };
     }
     out
