@@ -730,6 +730,7 @@ impl Scene {
 
     /// Surface attributes of a hit produced by [`Self::intersect`] for the same ray.
     #[must_use]
+    #[inline]
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> Option<SurfacePoint> {
         let p = ray.at(hit.t_m);
         match hit.source {

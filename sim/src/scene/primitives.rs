@@ -423,6 +423,7 @@ impl BoxFromOrigin {
 impl Shape {
     /// Surface attributes at `p` (a point on the surface, e.g. from [`Shape::intersect`]).
     #[must_use]
+    #[inline]
     pub fn surface(&self, p: Point3<f64>) -> LocalSurface {
         match self {
             Self::Sphere { center, radius_m } => {
