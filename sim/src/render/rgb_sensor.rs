@@ -198,7 +198,7 @@ impl RgbSensorParams {
     ) {
         let chain = ExposureChain::new(self, exposure);
         if let Ok(o) = <&mut [u8; 3]>::try_from(out) {
-            chain.pixel(radiance, seed, pixel, lut, o);
+            chain.pixels(&[radiance], [1.0; 3], seed, pixel, lut, o);
         }
     }
 
@@ -214,16 +214,68 @@ impl RgbSensorParams {
         first_pixel: u64,
         out: &mut [u8],
     ) {
-        let lut = srgb_lut();
         let chain = ExposureChain::new(self, exposure);
-        for ((j, r), o) in radiance.iter().enumerate().zip(out.chunks_exact_mut(3)) {
-            let l = [
-                r[0] * white_balance[0],
-                r[1] * white_balance[1],
-                r[2] * white_balance[2],
-            ];
+        simd::dispatch(ExposeRun {
+            chain: &chain,
+            radiance,
+            white_balance,
+            seed,
+            first_pixel,
+            lut: srgb_lut(),
+            out,
+        });
+    }
+}
+
+/// Pixels of one [`ExposeRun`] lane group (one AVX-512 vector of f32 per channel).
+const EXPOSE_LANES: usize = 16;
+
+/// [`RgbSensorParams::expose_run`] as a [`simd::Kernel`]: [`EXPOSE_LANES`] pixels at a time
+/// in lanes (the 64-bit noise hash and the float chain vectorise across pixels), the rest
+/// one by one; each pixel's bytes are the same either way.
+struct ExposeRun<'a> {
+    chain: &'a ExposureChain,
+    radiance: &'a [[f32; 3]],
+    white_balance: [f32; 3],
+    seed: u64,
+    first_pixel: u64,
+    lut: &'a [u8],
+    out: &'a mut [u8],
+}
+
+impl simd::Kernel for ExposeRun<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        let Self {
+            chain,
+            radiance,
+            white_balance,
+            seed,
+            first_pixel,
+            lut,
+            out,
+        } = self;
+        let groups = radiance.len().min(out.len() / 3) / EXPOSE_LANES;
+        let (head, tail) = radiance.split_at(groups * EXPOSE_LANES);
+        let (out_head, out_tail) = out.split_at_mut(groups * EXPOSE_LANES * 3);
+        for (k, (r, o)) in head
+            .chunks_exact(EXPOSE_LANES)
+            .zip(out_head.chunks_exact_mut(3 * EXPOSE_LANES))
+            .enumerate()
+        {
+            if let (Ok(r), Ok(o)) = (
+                <&[[f32; 3]; EXPOSE_LANES]>::try_from(r),
+                <&mut [u8; 3 * EXPOSE_LANES]>::try_from(o),
+            ) {
+                let first = first_pixel + (k * EXPOSE_LANES) as u64;
+                chain.pixels(r, white_balance, seed, first, lut, o);
+            }
+        }
+        let first = first_pixel + head.len() as u64;
+        for ((j, r), o) in tail.iter().enumerate().zip(out_tail.chunks_exact_mut(3)) {
             if let Ok(o) = <&mut [u8; 3]>::try_from(o) {
-                chain.pixel(l, seed, first_pixel + j as u64, lut, o);
+                chain.pixels(&[*r], white_balance, seed, first + j as u64, lut, o);
             }
         }
     }
@@ -255,38 +307,54 @@ impl ExposureChain {
         }
     }
 
+    /// Steps 1-5 for the `N` consecutive pixels from `first` (radiance before white balance
+    /// `white_balance`), 3 bytes per pixel into `out`.
     #[inline(always)]
-    fn pixel(&self, radiance: [f32; 3], seed: u64, pixel: u64, lut: &[u8], out: &mut [u8; 3]) {
+    fn pixels<const N: usize, const B: usize>(
+        &self,
+        radiance: &[[f32; 3]; N],
+        white_balance: [f32; 3],
+        seed: u64,
+        first: u64,
+        lut: &[u8],
+        out: &mut [u8; B],
+    ) {
         const LAST: f32 = (SRGB_LUT_SIZE - 1) as f32;
-        // Lane 3 is padding (one SSE vector for the three channels).
-        let n = if self.noise {
-            standard_normal_rgb(seed, pixel)
-        } else {
-            [0.0; 4]
-        };
-        let r = [radiance[0], radiance[1], radiance[2], 0.0];
-        let mut index = [0_u32; 4];
-        for c in 0..4 {
-            // Finite values: plain comparisons for the clips.
-            let e = r[c] * self.e_scale;
-            let e = if e > 0.0 { e } else { 0.0 };
-            let e = e + (e + self.read2).sqrt() * n[c];
-            let e = if e > 0.0 { e } else { 0.0 };
-            let e = if e < self.full_well {
-                e
-            } else {
-                self.full_well
-            };
-            // Normalised value `e g / FW` clipped to [0, 1], as the nearest table index:
-            // adding 2^23 leaves round(x) in the low mantissa bits (x in 0..=65535).
-            let x = e * self.index_per_e;
-            let x = if x < LAST { x } else { LAST };
-            index[c] = (x + ROUND_MAGIC)
-                .to_bits()
-                .wrapping_sub(ROUND_MAGIC.to_bits());
+        let mut n = [[0.0_f32; N]; 3];
+        if self.noise {
+            for i in 0..N {
+                let d = standard_normal_rgb(seed, first + i as u64);
+                for (nc, dc) in n.iter_mut().zip(d) {
+                    nc[i] = dc;
+                }
+            }
         }
-        for (o, &i) in out.iter_mut().zip(&index) {
-            *o = lut.get(i as usize).copied().unwrap_or(255);
+        let mut index = [[0_u32; N]; 3];
+        for c in 0..3 {
+            for i in 0..N {
+                // Finite values: plain comparisons for the clips.
+                let e = radiance[i][c] * white_balance[c] * self.e_scale;
+                let e = if e > 0.0 { e } else { 0.0 };
+                let e = e + (e + self.read2).sqrt() * n[c][i];
+                let e = if e > 0.0 { e } else { 0.0 };
+                let e = if e < self.full_well {
+                    e
+                } else {
+                    self.full_well
+                };
+                // Normalised value `e g / FW` clipped to [0, 1], as the nearest table index:
+                // adding 2^23 leaves round(x) in the low mantissa bits (x in 0..=65535).
+                let x = e * self.index_per_e;
+                let x = if x < LAST { x } else { LAST };
+                index[c][i] = (x + ROUND_MAGIC)
+                    .to_bits()
+                    .wrapping_sub(ROUND_MAGIC.to_bits());
+            }
+        }
+        for (i, o) in out.chunks_exact_mut(3).enumerate().take(N) {
+            for (c, b) in o.iter_mut().enumerate() {
+                *b = lut.get(index[c][i] as usize).copied().unwrap_or(255);
+            }
         }
     }
 }
@@ -342,6 +410,41 @@ pub fn standard_normal(seed: u64, counter: u64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A run (two lane groups and a tail) gives each pixel the bytes of `expose_pixel` on
+    /// its white-balanced radiance, at every vector level.
+    #[test]
+    fn expose_run_equals_expose_pixel_at_every_level() {
+        let p = RgbSensorParams::default();
+        let exposure = Exposure {
+            exposure_s: 0.004,
+            gain: 2.0,
+        };
+        let wb = [0.9, 1.0, 1.3];
+        let radiance: Vec<[f32; 3]> = (0..2 * EXPOSE_LANES + 5)
+            .map(|i| {
+                let x = i as f32;
+                [x * 3.1, 40.0 + x * 0.7, (x * 0.37).sin().abs() * 90.0]
+            })
+            .collect();
+        let lut = srgb_lut();
+        for level in [
+            simd::Level::Baseline,
+            simd::Level::Avx2,
+            simd::Level::Avx512,
+        ] {
+            let mut out = vec![0_u8; 3 * radiance.len()];
+            simd::with_max_level(level, || {
+                p.expose_run(&radiance, wb, &exposure, 99, 1000, &mut out);
+            });
+            for (i, (r, o)) in radiance.iter().zip(out.chunks_exact(3)).enumerate() {
+                let mut one = [0_u8; 3];
+                let l = [r[0] * wb[0], r[1] * wb[1], r[2] * wb[2]];
+                p.expose_pixel(l, &exposure, 99, 1000 + i as u64, lut, &mut one);
+                assert_eq!(o, one, "{level:?} pixel {i}");
+            }
+        }
+    }
 
     #[test]
     fn normal_has_unit_variance() {
