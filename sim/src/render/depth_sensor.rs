@@ -24,7 +24,7 @@
 //! All random draws are keyed by (capture seed, pixel index): thread-count independent.
 
 use crate::render::rgb_sensor::standard_normal;
-use crate::scene::noise::{uniform_open, value2};
+use crate::scene::noise::{uniform_open, value_lanes};
 
 /// Depth sensor parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -128,45 +128,128 @@ impl DepthSensorParams {
         col: u32,
         row: u32,
     ) -> f32 {
-        if !(s.z_m >= self.min_range_m && s.z_m <= self.max_range_m) {
-            return f32::NAN;
-        }
+        let mut one = DepthLanes::<1>::default();
+        one.set(0, s, pixel, col, row);
+        self.measure_lanes(max_incidence_cos, &one, seed)[0]
+    }
+
+    /// [`Self::measure_with`] of `N` pixels at once (lane `i` is pixel `i`'s measurement,
+    /// bit for bit): every hole test is evaluated in all lanes and selected, and the draws
+    /// a test needs (dark-surface dropout, sun wash-out blobs) are skipped for batches where
+    /// no lane reaches it.
+    // Lanes are indexed in step across several arrays (the vectorised form).
+    #[allow(clippy::needless_range_loop)]
+    #[inline(always)]
+    #[must_use]
+    pub fn measure_lanes<const N: usize>(
+        &self,
+        max_incidence_cos: f64,
+        s: &DepthLanes<N>,
+        seed: u64,
+    ) -> [f32; N] {
         let seed = seed ^ DEPTH_SALT;
-        if self.holes_enabled {
-            if s.cos_incidence < max_incidence_cos {
-                return f32::NAN;
-            }
-            if s.metal && s.cos_incidence > self.specular_hole_cos {
-                return f32::NAN;
-            }
-            if s.albedo < self.dark_albedo {
-                let p = 1.0 - s.albedo / self.dark_albedo;
-                if uniform_open(seed, pixel) < p {
-                    return f32::NAN;
-                }
-            }
-            if s.sun_lux > self.sun_washout_start_lux {
-                let span = (self.sun_washout_full_lux - self.sun_washout_start_lux).max(1.0);
-                let p = self.sun_washout_max_probability
-                    * ((s.sun_lux - self.sun_washout_start_lux) / span).clamp(0.0, 1.0);
-                let blob = value2(
-                    col as f32 / 8.0,
-                    row as f32 / 8.0,
-                    (seed ^ (seed >> 32)) as u32,
-                );
-                // value2 is concentrated around 0.5; stretch it to roughly uniform.
-                let q = f64::from(((blob - 0.5) * 1.8 + 0.5).clamp(0.0, 1.0));
-                if q < p {
-                    return f32::NAN;
-                }
+        let mut hole = [false; N];
+        let mut any_dark = false;
+        let mut any_sun = false;
+        for i in 0..N {
+            let z = s.z_m[i];
+            hole[i] = !(z >= self.min_range_m && z <= self.max_range_m);
+            if self.holes_enabled {
+                let c = s.cos_incidence[i];
+                hole[i] |= c < max_incidence_cos || (s.metal[i] && c > self.specular_hole_cos);
+                any_dark |= s.albedo[i] < self.dark_albedo;
+                any_sun |= s.sun_lux[i] > self.sun_washout_start_lux;
             }
         }
-        let z = if self.noise_enabled {
-            s.z_m + self.sigma_m(s.z_m) * standard_normal(seed, pixel)
-        } else {
-            s.z_m
-        };
-        z as f32
+        if any_dark {
+            for i in 0..N {
+                let dark = s.albedo[i] < self.dark_albedo;
+                let p = 1.0 - s.albedo[i] / self.dark_albedo;
+                hole[i] |= dark && uniform_open(seed, s.pixel[i]) < p;
+            }
+        }
+        if any_sun {
+            let span = (self.sun_washout_full_lux - self.sun_washout_start_lux).max(1.0);
+            let blob = value_lanes(
+                s.col.map(|c| c as f32 / 8.0),
+                s.row.map(|r| r as f32 / 8.0),
+                [(seed ^ (seed >> 32)) as u32; N],
+            );
+            for i in 0..N {
+                let sunny = s.sun_lux[i] > self.sun_washout_start_lux;
+                let p = self.sun_washout_max_probability
+                    * ((s.sun_lux[i] - self.sun_washout_start_lux) / span).clamp(0.0, 1.0);
+                // value2 is concentrated around 0.5; stretch it to roughly uniform.
+                let q = f64::from(((blob[i] - 0.5) * 1.8 + 0.5).clamp(0.0, 1.0));
+                hole[i] |= sunny && q < p;
+            }
+        }
+        let mut out = [0.0_f32; N];
+        for i in 0..N {
+            let z = s.z_m[i];
+            let z = if self.noise_enabled {
+                z + self.sigma_m(z) * standard_normal(seed, s.pixel[i])
+            } else {
+                z
+            };
+            out[i] = if hole[i] { f32::NAN } else { z as f32 };
+        }
+        out
+    }
+}
+
+/// Depth samples of `N` pixels (one per lane) with their pixel index and position, the
+/// input of [`DepthSensorParams::measure_lanes`].
+#[derive(Clone, Copy, Debug)]
+pub struct DepthLanes<const N: usize> {
+    /// [`DepthSample::z_m`] per lane.
+    pub z_m: [f64; N],
+    /// [`DepthSample::cos_incidence`] per lane.
+    pub cos_incidence: [f64; N],
+    /// [`DepthSample::albedo`] per lane.
+    pub albedo: [f64; N],
+    /// [`DepthSample::sun_lux`] per lane.
+    pub sun_lux: [f64; N],
+    /// [`DepthSample::metal`] per lane.
+    pub metal: [bool; N],
+    /// Pixel index (the draws' counter) per lane.
+    pub pixel: [u64; N],
+    /// Pixel column per lane.
+    pub col: [u32; N],
+    /// Pixel row per lane.
+    pub row: [u32; N],
+}
+
+impl<const N: usize> Default for DepthLanes<N> {
+    fn default() -> Self {
+        Self {
+            z_m: [0.0; N],
+            cos_incidence: [0.0; N],
+            albedo: [0.0; N],
+            sun_lux: [0.0; N],
+            metal: [false; N],
+            pixel: [0; N],
+            col: [0; N],
+            row: [0; N],
+        }
+    }
+}
+
+impl<const N: usize> DepthLanes<N> {
+    /// Puts pixel `(col, row)` with index `pixel` and sample `s` into lane `i` (ignored
+    /// beyond `N`).
+    #[inline(always)]
+    pub fn set(&mut self, i: usize, s: &DepthSample, pixel: u64, col: u32, row: u32) {
+        if i < N {
+            self.z_m[i] = s.z_m;
+            self.cos_incidence[i] = s.cos_incidence;
+            self.albedo[i] = s.albedo;
+            self.sun_lux[i] = s.sun_lux;
+            self.metal[i] = s.metal;
+            self.pixel[i] = pixel;
+            self.col[i] = col;
+            self.row[i] = row;
+        }
     }
 }
 
@@ -195,6 +278,45 @@ mod tests {
         let p = DepthSensorParams::default();
         assert!((p.sigma_m(0.5) - 1e-4).abs() < 1e-15);
         assert!((p.sigma_m(1.0) - 4e-4).abs() < 1e-15);
+    }
+
+    /// Lane `i` of a batch is `measure_with` of pixel `i`, bit for bit, across range
+    /// limits, grazing, metal, dark and sunlit surfaces.
+    #[test]
+    fn lanes_equal_single_measurements() {
+        let p = DepthSensorParams::default();
+        let max_cos = p.max_incidence_cos();
+        let mut kinds = [0_usize; 4];
+        for k in 0..2000_u64 {
+            let mut lanes = DepthLanes::<8>::default();
+            let mut samples = [DepthSample {
+                z_m: 0.0,
+                cos_incidence: 0.0,
+                albedo: 0.0,
+                sun_lux: 0.0,
+                metal: false,
+            }; 8];
+            for (i, s) in samples.iter_mut().enumerate() {
+                let x = (k * 8 + i as u64) as f64;
+                *s = DepthSample {
+                    z_m: 0.1 + (x * 0.618).fract() * 2.3,
+                    cos_incidence: (x * 0.414).fract(),
+                    albedo: (x * 0.271).fract() * 0.06,
+                    sun_lux: (x * 0.173).fract() * 120_000.0,
+                    metal: (k + i as u64).is_multiple_of(5),
+                };
+                lanes.set(i, s, 1000 + x as u64, (x as u32) % 97, (x as u32) / 97);
+            }
+            let z = p.measure_lanes(max_cos, &lanes, 42);
+            for (i, s) in samples.iter().enumerate() {
+                let one =
+                    p.measure_with(max_cos, s, 42, lanes.pixel[i], lanes.col[i], lanes.row[i]);
+                assert_eq!(z[i].to_bits(), one.to_bits(), "batch {k} lane {i}");
+                kinds[usize::from(one.is_nan())
+                    + 2 * usize::from(s.sun_lux > p.sun_washout_start_lux)] += 1;
+            }
+        }
+        assert!(kinds.iter().all(|&n| n > 500), "{kinds:?}");
     }
 
     #[test]
