@@ -202,7 +202,7 @@ pub fn fbm2(x: f32, y: f32, scale_m: f32, octaves: u32, px_per_m: f32, seed: u32
     };
     if octaves as usize <= FBM_LANES_SMALL {
         let plan = FbmPlan::new(x, y, scale_m, octaves, px_per_m, seed);
-        return plan.finish(value2_lanes(plan.x, plan.y, plan.seed));
+        return plan.finish(value_lanes(plan.x, plan.y, plan.seed));
     } else {
         let mut o = 0;
         while o < octaves && fbm_lanes::<FBM_LANES_WIDE>(x, y, o, octaves - o, seed, &mut acc) {
@@ -274,17 +274,15 @@ fn fbm_lanes<const N: usize>(
 }
 
 /// The octave lookups of an [`fbm2`] of at most four octaves, laid out as the lanes of one
-/// [`value2_lanes`] call, so a texture can batch them with its other value-noise lookups
-/// (lanes `octaves..4` are free for those): `plan.finish(value2_lanes(..))` equals
-/// [`fbm2`] bit for bit.
+/// [`value_lanes`] call: `plan.finish(value_lanes(..))` equals [`fbm2`] bit for bit.
 #[derive(Clone, Copy, Debug)]
-pub struct FbmPlan {
+struct FbmPlan {
     /// Lookup x per lane (octave `o`: `x 2.13^o / scale`).
-    pub x: [f32; FBM_LANES_SMALL],
+    x: [f32; FBM_LANES_SMALL],
     /// Lookup y per lane.
-    pub y: [f32; FBM_LANES_SMALL],
+    y: [f32; FBM_LANES_SMALL],
     /// Lookup seed per lane.
-    pub seed: [u32; FBM_LANES_SMALL],
+    seed: [u32; FBM_LANES_SMALL],
     weight: [f32; FBM_LANES_SMALL],
     active: [bool; FBM_LANES_SMALL],
     norm: f32,
@@ -294,7 +292,7 @@ impl FbmPlan {
     /// Plans `fbm2(x, y, scale_m, octaves.min(4), px_per_m, seed)`.
     #[inline(always)]
     #[must_use]
-    pub fn new(x: f32, y: f32, scale_m: f32, octaves: u32, px_per_m: f32, seed: u32) -> Self {
+    fn new(x: f32, y: f32, scale_m: f32, octaves: u32, px_per_m: f32, seed: u32) -> Self {
         let mut acc = FbmAcc {
             freq: 1.0 / scale_m,
             wavelength_px: scale_m * px_per_m,
@@ -331,7 +329,7 @@ impl FbmPlan {
     /// The fbm from the lane values `v` (only the planned octaves' lanes are read).
     #[inline(always)]
     #[must_use]
-    pub fn finish(&self, v: [f32; FBM_LANES_SMALL]) -> f32 {
+    fn finish(&self, v: [f32; FBM_LANES_SMALL]) -> f32 {
         let mut sum = 0.0;
         for ((&active, &weight), &v) in self.active.iter().zip(&self.weight).zip(&v) {
             // Inactive lanes add +0.0 (whatever the lane held), which changes no sum.
@@ -343,13 +341,6 @@ impl FbmPlan {
             0.0
         }
     }
-}
-
-/// [`value2`] of four points at once (one SSE vector per step), bit for bit.
-#[inline(always)]
-#[must_use]
-pub fn value2_lanes(x: [f32; 4], y: [f32; 4], seed: [u32; 4]) -> [f32; 4] {
-    value_lanes(x, y, seed)
 }
 
 /// [`value2`] of `N` points at once, lane by lane the same operations (and bits).
@@ -503,8 +494,6 @@ struct CellPoints {
     px: [[f32; 4]; 3],
     py: [[f32; 4]; 3],
     h: [u32; CELL_LANES],
-    /// Least `unit_f32(h)` of the 9 cells (see [`NoiseCache::nearest_cell_below`]).
-    min_unit: f32,
 }
 
 #[inline(always)]
@@ -526,17 +515,7 @@ fn cell_points(ix: u32, iy: u32, seed: u32) -> CellPoints {
         px[i / 4][i % 4] = CELL_X[i] + 0.8 * jitter16(h[i] & 0xffff) + pad;
         py[i / 4][i % 4] = CELL_Y[i] + 0.8 * jitter16(h[i] >> 16);
     }
-    let mut min_unit = f32::MAX;
-    for &hi in h.iter().take(CELLS) {
-        let x = unit_f32(hi);
-        min_unit = if x < min_unit { x } else { min_unit };
-    }
-    CellPoints {
-        px,
-        py,
-        h,
-        min_unit,
-    }
+    CellPoints { px, py, h }
 }
 
 /// Squared distances from `(fx, fy)` to the feature points of `pts` (padding lanes ~1e36).
@@ -762,7 +741,6 @@ impl NoiseCache {
                     px: [[0.0; 4]; 3],
                     py: [[0.0; 4]; 3],
                     h: [0; CELL_LANES],
-                    min_unit: 0.0,
                 },
             }; CELL_SLOTS],
         }
@@ -837,37 +815,6 @@ impl NoiseCache {
         }
         (&entry.points, x - xf, y - yf)
     }
-
-    /// The nearest feature point of [`cellular2`] (`f1` and `id`, bit-identical) when its
-    /// cell's `unit_f32(id)` is at most `max_unit`, else `None`: "is this point in a
-    /// selected cell, and how far inside". A neighbourhood without any cell at or below
-    /// `max_unit` (known from the memo) answers without measuring a distance.
-    #[inline]
-    pub fn nearest_cell_below(
-        &mut self,
-        x: f32,
-        y: f32,
-        seed: u32,
-        max_unit: f32,
-    ) -> Option<Nearest> {
-        let (pts, fx, fy) = self.cell_points_at(x, y, seed);
-        if pts.min_unit > max_unit {
-            return None;
-        }
-        let d = squared_distances(pts, fx, fy);
-        let f1 = min_lane(&d);
-        let id = pts.h[first_lane(lanes_equal(&d, f1))];
-        (unit_f32(id) <= max_unit).then(|| Nearest { f1: f1.sqrt(), id })
-    }
-}
-
-/// Result of [`NoiseCache::nearest_cell_below`].
-#[derive(Clone, Copy, Debug)]
-pub struct Nearest {
-    /// Distance to the nearest feature point (cell units).
-    pub f1: f32,
-    /// Hash of the nearest feature's cell.
-    pub id: u32,
 }
 
 /// Wavelength of octave `o` relative to the first: `LACUNARITY^-o` (the running product
@@ -1056,28 +1003,6 @@ mod tests {
         );
         // fbm spans about [-0.5, 0.5]; the interpolation error bound is a few 1e-3.
         assert!(worst < 0.01, "interpolated fbm off by {worst}");
-    }
-
-    /// `nearest_cell_below` is `cellular2`'s nearest point filtered by its cell's unit
-    /// value, bit for bit, including neighbourhoods answered by the memo's least unit.
-    #[test]
-    fn nearest_cell_below_filters_cellular2() {
-        let mut memo = NoiseCache::new();
-        let (mut kept, mut early) = (0, 0);
-        for i in 0..20_000_u32 {
-            let x = (i % 300) as f32 * 0.037 - 3.0;
-            let y = (i / 300) as f32 * 0.041 + 1.0;
-            let seed = i % 5;
-            let max_unit = [0.0, 0.02, 0.1, 0.3, 0.5, 1.0][(i % 6) as usize];
-            let c = cellular2(x, y, seed);
-            let got = memo.nearest_cell_below(x, y, seed, max_unit);
-            let want = (unit_f32(c.id) <= max_unit).then_some((c.f1.to_bits(), c.id));
-            assert_eq!(got.map(|n| (n.f1.to_bits(), n.id)), want, "x {x} y {y}");
-            kept += usize::from(want.is_some());
-            let (ix, iy) = (lattice_index(x.floor()), lattice_index(y.floor()));
-            early += usize::from(cell_points(ix, iy, seed).min_unit > max_unit);
-        }
-        assert!(kept > 1000 && early > 1000, "kept {kept} early {early}");
     }
 
     #[test]
