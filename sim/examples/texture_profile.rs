@@ -4,7 +4,7 @@
 //!
 //! `valgrind --tool=callgrind target/release/examples/texture_profile [KIND] [lanes]` with
 //! KIND 0 bolted panel (default), 1 painted with rust, 2 label, 3 gravel, 4 concrete, 5
-//! galvanised; `lanes` evaluates 8 points per call as the renderer's tiles do.
+//! galvanised; `lanes` evaluates 8 points per call as the renderer's tiles do below AVX-512.
 
 use std::hint::black_box;
 

@@ -286,9 +286,11 @@ pub struct RayTable {
 type TileBounds = [[f64; 2]; 2];
 
 /// One tile of a [`RayTable`].
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct RayTile<'a> {
-    /// Unit camera-frame directions, row-major within the tile.
+    /// The tile's pixel columns.
+    pub cols: std::ops::Range<usize>,
+    /// Unit camera-frame directions, row-major within the tile (`cols.len()` per row).
     pub dirs: &'a [[f64; 3]],
     /// `[min, max]` of the tile's normalised x.
     pub x_range: [f64; 2],
@@ -390,6 +392,7 @@ impl RayTable {
             .tile_bounds
             .get((row0 / RAY_TILE) * tiles_per_row + col0 / RAY_TILE)?;
         Some(RayTile {
+            cols: col0..col0 + cols,
             dirs: self.tile_dirs.get(start..start + rows * cols)?,
             x_range,
             y_range,
@@ -400,7 +403,7 @@ impl RayTable {
 /// `[min, max]` grown by `x` (finite values: plain comparisons, one `minsd`/`maxsd` each).
 #[inline(always)]
 #[must_use]
-pub fn grow(range: [f64; 2], x: f64) -> [f64; 2] {
+pub(crate) fn grow(range: [f64; 2], x: f64) -> [f64; 2] {
     [
         if x < range[0] { x } else { range[0] },
         if x > range[1] { x } else { range[1] },
@@ -436,17 +439,19 @@ mod tests {
 
     /// Every pixel's direction sits in its tile, bit for bit [`unit_direction`] of its
     /// coordinates, and the tile bounds are its pixels' extremes, also for partial tiles
-    /// (the panoramic camera's 360 rows end in a band of 8).
+    /// (the panoramic camera's 360 rows end in a band of 8; the 115x92 camera has partial
+    /// tiles in both directions).
     #[test]
     fn tiles_hold_every_pixel_once() -> Result<(), CameraError> {
         for cam in [
             CameraIntrinsics::panoramic(),
             CameraIntrinsics::wrist().scaled(0.1)?,
+            CameraIntrinsics::wrist().scaled(0.09)?,
         ] {
             let table = RayTable::new(&cam)?;
             let (w, h) = (cam.width as usize, cam.height as usize);
             assert!(
-                h % RAY_TILE != 0 || w % RAY_TILE != 0,
+                !h.is_multiple_of(RAY_TILE) || !w.is_multiple_of(RAY_TILE),
                 "{w}x{h} has partial tiles"
             );
             let mut seen = 0;

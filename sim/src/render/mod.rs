@@ -5,8 +5,9 @@
 //! 1. **Primary rays** (bands of 16 rows in parallel, 16x16 tiles within a band): each
 //!    pixel's undistorted direction comes from the camera's [`RayTable`] (the inverse
 //!    plumb_bob model), is rotated into the world by `world_from_camera`, intersected with the
-//!    scene and shaded ([`shading`]); depth `z = t d_z` (optical axis) goes through the
-//!    [`depth_sensor`] model. Per tile, the static BVH is culled once with the tile's frustum
+//!    scene and shaded ([`shading`]: surfaces, then the tile's textures in lane batches per
+//!    material, then lighting); depth `z = t d_z` (optical axis) goes through the
+//!    [`depth_sensor`] model, 8 pixels at a time. Per tile, the static BVH is culled once with the tile's frustum
 //!    (the x/z, y/z ranges of its rays: four planes through the camera centre) and the
 //!    tile's rays test only those candidates; shadow rays likewise test only the primitives
 //!    overlapping the beam swept from the box of the tile's hit points towards the sun
@@ -36,7 +37,10 @@
 //! tested first to tighten the bound) and the texture-noise memo
 //! ([`crate::scene::textures::NoiseCache`], keyed by all its inputs) live per band and never
 //! change a result. The output bytes are therefore identical for any rayon thread count
-//! (tested for the renderer with 1, 2 and 3 threads).
+//! (tested for the renderer with 1, 2 and 3 threads). The lane kernels (steel textures,
+//! colour and depth sensors) run at the vector level [`simd::max_level`] gives on the
+//! calling thread, in element-wise IEEE arithmetic, so every level and batch width gives
+//! the same bytes too (tested for a whole capture at each level).
 //!
 //! # Conventions
 //! Camera frame = OpenCV optical axes (x right, y down, z forward); `world_from_camera` maps
@@ -461,13 +465,14 @@ struct DepthMeasure<'a> {
     params: &'a DepthSensorParams,
     max_incidence_cos: f64,
     seed: u64,
+    level: simd::Level,
 }
 
 /// Pixels per depth measurement batch (one AVX-512 vector of f64).
 const DEPTH_LANES: usize = 8;
 
 /// Depth samples of a band waiting to be measured [`DEPTH_LANES`] at a time
-/// ([`DepthSensorParams::measure_lanes`] under [`simd::dispatch`]); each pixel's value is
+/// ([`DepthSensorParams::measure_lanes`] under [`simd::dispatch_at`]); each pixel's value is
 /// the one [`DepthSensorParams::measure_with`] gives it.
 #[derive(Default)]
 struct DepthBatch {
@@ -496,10 +501,13 @@ impl DepthBatch {
         if self.len == 0 {
             return;
         }
-        let z = simd::dispatch(MeasureDepth {
-            sensor,
-            lanes: &self.lanes,
-        });
+        let z = simd::dispatch_at(
+            sensor.level,
+            MeasureDepth {
+                sensor,
+                lanes: &self.lanes,
+            },
+        );
         for (&j, &z) in self.slots.iter().zip(&z).take(self.len) {
             if let Some(d) = dep.get_mut(j) {
                 *d = z;
@@ -525,8 +533,9 @@ impl simd::Kernel for MeasureDepth<'_, '_> {
     }
 }
 
-/// Traces and shades the centre samples of the tile `cols` x `band`, calling
-/// `out(index in band, column, row, shaded, dz)` per pixel. Primary rays are tested only against the
+/// Traces and shades the centre samples of `tile` in `band`, calling
+/// `out(index in band, column, row, shaded)` per pixel (with the sample's depth along the
+/// optical axis in `shaded.depth`). Primary rays are tested only against the
 /// static primitives inside the tile's frustum, shadow rays only against those inside the
 /// beam swept by the tile's hit points towards the sun (both exact: the volumes contain
 /// every ray).
@@ -537,15 +546,14 @@ fn render_tile(
     setup: &LightSetup,
     tile: &RayTile<'_>,
     band: &Band,
-    cols: std::ops::Range<usize>,
     sc: &mut TileScratch,
     mut out: impl FnMut(usize, u32, u32, &Shaded),
 ) {
     let w = band.width;
     let o = [cam.origin.x, cam.origin.y, cam.origin.z];
     sc.rays.clear();
-    for (r, row_dirs) in tile.dirs.chunks(cols.len().max(1)).enumerate() {
-        for (c, &d) in cols.clone().zip(row_dirs) {
+    for (r, row_dirs) in tile.dirs.chunks(tile.cols.len().max(1)).enumerate() {
+        for (c, &d) in tile.cols.clone().zip(row_dirs) {
             let (ray, dz) = cam.ray_along(d);
             sc.rays.push(TileRay {
                 j: r * w + c,
@@ -627,10 +635,14 @@ pub fn render_rgbd_with_rays(
     let mut depth = vec![f32::NAN; n];
     let chunk = TILE * w;
 
+    // The vector level of the lane kernels, taken on the calling thread (a cap set there
+    // with `simd::with_max_level` then holds on the workers too).
+    let level = simd::max_level();
     let depth_sensor = DepthMeasure {
         params: &sensor.depth,
         max_incidence_cos: sensor.depth.max_incidence_cos(),
         seed,
+        level,
     };
     // Pass 1: centre samples, tile by tile (bands of TILE rows in parallel).
     radiance
@@ -639,14 +651,16 @@ pub fn render_rgbd_with_rays(
         .zip(depth.par_chunks_mut(chunk))
         .enumerate()
         .for_each(|(ci, ((rad, key), dep))| {
-            let mut scratch = TileScratch::default();
+            let mut scratch = TileScratch {
+                batch: AlbedoBatch::new(level),
+                ..TileScratch::default()
+            };
             let mut depth_batch = DepthBatch::default();
             let band = Band {
                 row0: ci * TILE,
                 width: w,
             };
             for col0 in (0..w).step_by(TILE) {
-                let cols = col0..(col0 + TILE).min(w);
                 let Some(tile) = rays.tile(col0, band.row0) else {
                     continue;
                 };
@@ -656,7 +670,6 @@ pub fn render_rgbd_with_rays(
                     &setup,
                     &tile,
                     &band,
-                    cols,
                     &mut scratch,
                     |j, col, row, s: &Shaded| {
                         let p = band.row0 * w + j;
@@ -674,8 +687,8 @@ pub fn render_rgbd_with_rays(
                         }
                     },
                 );
-                depth_batch.flush(&depth_sensor, dep);
             }
+            depth_batch.flush(&depth_sensor, dep);
         });
 
     // Pass 2: supersample pixels on primitive boundaries.
@@ -812,7 +825,9 @@ pub fn render_rgbd_with_rays(
         .enumerate()
         .for_each(|(ci, (out, rad))| {
             let p0 = (ci * chunk) as u64;
-            sensor.rgb.expose_run(rad, wb, &exposure, rgb_seed, p0, out);
+            sensor
+                .rgb
+                .expose_run(level, rad, wb, &exposure, rgb_seed, p0, out);
         });
 
     RgbdFrame {
@@ -898,9 +913,6 @@ mod tests {
         assert!(interpolate_rays(rays.normalized(), 1, h, 0, 0, RGSS[0]).is_none());
     }
 
-    /// Tile culling must not change any pixel: compare every centre sample of the tiled
-    /// path with the per-ray full-hierarchy [`trace`], bit for bit, for views with shadows
-    /// cast by other structures (low sun) and with sky and far ground in the image.
     /// The whole capture (steel textures, colour and depth sensors) has the same bytes at
     /// every vector level: the calibration cabinet at noon, with sun wash-out and dark
     /// surfaces in view.
@@ -922,10 +934,6 @@ mod tests {
             panic!("pose");
         };
         let light = LightConditions::from_hour(12.0);
-        // One worker, which the level cap applies to (the cap is per thread).
-        let Ok(pool) = rayon::ThreadPoolBuilder::new().num_threads(1).build() else {
-            panic!("thread pool");
-        };
         let frames: Vec<(Vec<u8>, Vec<u32>)> = [
             simd::Level::Baseline,
             simd::Level::Avx2,
@@ -933,10 +941,8 @@ mod tests {
         ]
         .into_iter()
         .map(|level| {
-            let f = pool.install(|| {
-                simd::with_max_level(level, || {
-                    render_rgbd(&scene, &pose, &k, &light, &SensorParams::wrist(), 5)
-                })
+            let f = simd::with_max_level(level, || {
+                render_rgbd(&scene, &pose, &k, &light, &SensorParams::wrist(), 5)
             });
             let Ok(f) = f else { panic!("render") };
             (f.rgb, f.depth_m.iter().map(|z| z.to_bits()).collect())
@@ -954,6 +960,9 @@ mod tests {
         }
     }
 
+    /// Tile culling must not change any pixel: compare every centre sample of the tiled
+    /// path with the per-ray full-hierarchy [`trace`], bit for bit, for views with shadows
+    /// cast by other structures (low sun) and with sky and far ground in the image.
     #[test]
     fn tile_culling_matches_full_traversal() {
         let Ok((scene, layout)) = SubstationBuilder::new(3).build() else {
@@ -1003,7 +1012,6 @@ mod tests {
                 for row0 in (0..h).step_by(TILE) {
                     let band = Band { row0, width: w };
                     for col0 in (0..w).step_by(TILE) {
-                        let cols = col0..(col0 + TILE).min(w);
                         let Some(tile) = rays.tile(col0, row0) else {
                             panic!("tile {col0} {row0}");
                         };
@@ -1013,7 +1021,6 @@ mod tests {
                             &setup,
                             &tile,
                             &band,
-                            cols,
                             &mut scratch,
                             |j, _, _, s| {
                                 let p = row0 * w + j;

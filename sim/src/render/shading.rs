@@ -338,21 +338,39 @@ impl SurfaceHit {
     }
 }
 
-/// Points waiting per material before a batched texture lookup (one AVX-512 vector of
-/// f32, two AVX2 vectors).
+/// Points waiting per material and face before a batched texture lookup (one AVX-512
+/// vector of f32; two batches of 8 below AVX-512).
 const ALBEDO_LANES: usize = 16;
 
-/// Texture lookups of a tile's hits, batched per material: textures with a lane kernel
-/// ([`crate::scene::Material::has_lane_texture`]) are evaluated [`ALBEDO_LANES`] points at
-/// a time, the others point by point. Every albedo equals [`SurfaceHit::albedo`] bit for
-/// bit, so batching changes only the speed.
-#[derive(Clone, Debug, Default)]
+/// Texture lookups of a tile's hits, batched per material and face: textures with a lane
+/// kernel ([`crate::scene::Material::has_lane_texture`]) are evaluated [`ALBEDO_LANES`]
+/// points at a time at a fixed vector level, the others point by point. Every albedo
+/// equals [`SurfaceHit::albedo`] bit for bit, so batching changes only the speed.
+#[derive(Clone, Debug)]
 pub struct AlbedoBatch {
-    /// Per material with points waiting: its id and the indices of its waiting hits.
-    pending: Vec<(MaterialId, Vec<usize>)>,
+    level: simd::Level,
+    /// Per (material, face) with points waiting: the indices of its waiting hits (a face
+    /// has its own texture seed, and one seed per batch keeps the noise in lanes).
+    pending: Vec<((MaterialId, u8), Vec<usize>)>,
+}
+
+impl Default for AlbedoBatch {
+    fn default() -> Self {
+        Self::new(simd::max_level())
+    }
 }
 
 impl AlbedoBatch {
+    /// Batches run at `level` (or the best level below it that this CPU has); hand a
+    /// rendering's worker threads the caller's [`simd::max_level`].
+    #[must_use]
+    pub fn new(level: simd::Level) -> Self {
+        Self {
+            level,
+            pending: Vec::new(),
+        }
+    }
+
     /// The albedo of every hit of `hits` into `out` (same length; `[0; 3]` where `None`).
     pub fn run(
         &mut self,
@@ -368,17 +386,17 @@ impl AlbedoBatch {
         }
         for (i, h) in hits.iter().enumerate() {
             let Some(h) = h else { continue };
-            let id = h.material;
-            if !scene.material(id).has_lane_texture() {
+            if !scene.material(h.material).has_lane_texture() {
                 if let Some(o) = out.get_mut(i) {
                     *o = h.albedo(scene, noise);
                 }
                 continue;
             }
-            let slot = match self.pending.iter().position(|(m, _)| *m == id) {
+            let key = (h.material, h.face);
+            let slot = match self.pending.iter().position(|(k, _)| *k == key) {
                 Some(k) => k,
                 None => {
-                    self.pending.push((id, Vec::with_capacity(ALBEDO_LANES)));
+                    self.pending.push((key, Vec::with_capacity(ALBEDO_LANES)));
                     self.pending.len() - 1
                 }
             };
@@ -387,21 +405,21 @@ impl AlbedoBatch {
             };
             waiting.push(i);
             if waiting.len() == ALBEDO_LANES {
-                flush(scene, id, waiting, hits, noise, out);
+                flush(self.level, scene, key.0, waiting, hits, noise, out);
             }
         }
-        for (id, waiting) in &mut self.pending {
+        for ((id, _), waiting) in &mut self.pending {
             if !waiting.is_empty() {
-                flush(scene, *id, waiting, hits, noise, out);
+                flush(self.level, scene, *id, waiting, hits, noise, out);
             }
         }
     }
 }
 
 /// Looks up the albedo of the (at most [`ALBEDO_LANES`]) hits `waiting` of material `id`
-/// in lane batches and empties `waiting`: one batch of 16 with AVX-512, batches of 8
-/// otherwise (spare lanes repeat the last point).
+/// at `level` and empties `waiting`: one batch of 16 with AVX-512, batches of 8 otherwise.
 fn flush(
+    level: simd::Level,
     scene: &Scene,
     id: MaterialId,
     waiting: &mut Vec<usize>,
@@ -410,32 +428,40 @@ fn flush(
     out: &mut [[f32; 3]],
 ) {
     let material = scene.material(id);
-    let level = simd::max_level();
-    let wide = level == simd::Level::Avx512;
-    let batch = |first: usize, out: &mut [[f32; 3]], noise: &mut NoiseCache| {
-        if wide {
-            let (uv, face, ppm) = gather::<ALBEDO_LANES>(waiting, first, hits);
-            scatter(
-                waiting,
-                first,
-                &material.albedo_lanes(level, &uv, &face, &ppm, noise),
-                out,
-            );
-        } else {
-            let (uv, face, ppm) = gather::<{ ALBEDO_LANES / 2 }>(waiting, first, hits);
-            scatter(
-                waiting,
-                first,
-                &material.albedo_lanes(level, &uv, &face, &ppm, noise),
-                out,
-            );
-        }
+    let level = level.min(simd::detected());
+    let step = if level == simd::Level::Avx512 {
+        ALBEDO_LANES
+    } else {
+        ALBEDO_LANES / 2
     };
-    let step = if wide { ALBEDO_LANES } else { ALBEDO_LANES / 2 };
     for first in (0..waiting.len()).step_by(step) {
-        batch(first, out, noise);
+        if step == ALBEDO_LANES {
+            lookup::<ALBEDO_LANES>(level, material, waiting, first, hits, noise, out);
+        } else {
+            lookup::<{ ALBEDO_LANES / 2 }>(level, material, waiting, first, hits, noise, out);
+        }
     }
     waiting.clear();
+}
+
+/// One lane batch: the albedo of the hits `waiting[first..first + N]` (spare lanes repeat
+/// the last point; only the real lanes are written to `out`).
+fn lookup<const N: usize>(
+    level: simd::Level,
+    material: &crate::scene::Material,
+    waiting: &[usize],
+    first: usize,
+    hits: &[Option<SurfaceHit>],
+    noise: &mut NoiseCache,
+    out: &mut [[f32; 3]],
+) {
+    let (uv, face, ppm) = gather::<N>(waiting, first, hits);
+    let albedo = material.albedo_lanes(level, &uv, &face, &ppm, noise);
+    for (&i, a) in waiting.iter().skip(first).zip(albedo) {
+        if let Some(o) = out.get_mut(i) {
+            *o = a;
+        }
+    }
 }
 
 /// Texture inputs of the hits `waiting[first..first + N]`, the last one repeated into
@@ -462,13 +488,4 @@ fn gather<const N: usize>(
         }
     }
     (uv, face, ppm)
-}
-
-/// Writes the lane results of `waiting[first..]` to their hits in `out`.
-fn scatter(waiting: &[usize], first: usize, albedo: &[[f32; 3]], out: &mut [[f32; 3]]) {
-    for (&i, a) in waiting.iter().skip(first).zip(albedo) {
-        if let Some(o) = out.get_mut(i) {
-            *o = *a;
-        }
-    }
 }

@@ -201,8 +201,7 @@ pub fn fbm2(x: f32, y: f32, scale_m: f32, octaves: u32, px_per_m: f32, seed: u32
         norm: 0.0,
     };
     if octaves as usize <= FBM_LANES_SMALL {
-        let plan = FbmPlan::new(x, y, scale_m, octaves, px_per_m, seed);
-        return plan.finish(value_lanes(plan.x, plan.y, plan.seed));
+        fbm_lanes::<FBM_LANES_SMALL>(x, y, 0, octaves, seed, &mut acc);
     } else {
         let mut o = 0;
         while o < octaves && fbm_lanes::<FBM_LANES_WIDE>(x, y, o, octaves - o, seed, &mut acc) {
@@ -271,76 +270,6 @@ fn fbm_lanes<const N: usize>(
         acc.sum += weight[i] * (v[i] - 0.5);
     }
     active[N - 1] && count as usize > N
-}
-
-/// The octave lookups of an [`fbm2`] of at most four octaves, laid out as the lanes of one
-/// [`value_lanes`] call: `plan.finish(value_lanes(..))` equals [`fbm2`] bit for bit.
-#[derive(Clone, Copy, Debug)]
-struct FbmPlan {
-    /// Lookup x per lane (octave `o`: `x 2.13^o / scale`).
-    x: [f32; FBM_LANES_SMALL],
-    /// Lookup y per lane.
-    y: [f32; FBM_LANES_SMALL],
-    /// Lookup seed per lane.
-    seed: [u32; FBM_LANES_SMALL],
-    weight: [f32; FBM_LANES_SMALL],
-    active: [bool; FBM_LANES_SMALL],
-    norm: f32,
-}
-
-impl FbmPlan {
-    /// Plans `fbm2(x, y, scale_m, octaves.min(4), px_per_m, seed)`.
-    #[inline(always)]
-    #[must_use]
-    fn new(x: f32, y: f32, scale_m: f32, octaves: u32, px_per_m: f32, seed: u32) -> Self {
-        let mut acc = FbmAcc {
-            freq: 1.0 / scale_m,
-            wavelength_px: scale_m * px_per_m,
-            amp: 1.0,
-            sum: 0.0,
-            norm: 0.0,
-        };
-        let mut plan = Self {
-            x: [0.0; FBM_LANES_SMALL],
-            y: [0.0; FBM_LANES_SMALL],
-            seed: [0; FBM_LANES_SMALL],
-            weight: [0.0; FBM_LANES_SMALL],
-            active: [false; FBM_LANES_SMALL],
-            norm: 0.0,
-        };
-        // Per-octave constants by the same running products as the sequential loop.
-        for i in 0..FBM_LANES_SMALL {
-            let w = ((acc.wavelength_px - 2.0) * 0.5).clamp(0.0, 1.0);
-            // In-band octaves are a prefix (wavelengths fall with the octave).
-            plan.active[i] = (i as u32) < octaves && w > 0.0;
-            plan.weight[i] = if plan.active[i] { acc.amp * w } else { 0.0 };
-            plan.x[i] = x * acc.freq;
-            plan.y[i] = y * acc.freq;
-            plan.seed[i] = seed.wrapping_add((i as u32).wrapping_mul(0x9e37));
-            acc.norm += if plan.active[i] { acc.amp } else { 0.0 };
-            acc.freq *= LACUNARITY;
-            acc.wavelength_px *= 1.0 / LACUNARITY;
-            acc.amp *= GAIN;
-        }
-        plan.norm = acc.norm;
-        plan
-    }
-
-    /// The fbm from the lane values `v` (only the planned octaves' lanes are read).
-    #[inline(always)]
-    #[must_use]
-    fn finish(&self, v: [f32; FBM_LANES_SMALL]) -> f32 {
-        let mut sum = 0.0;
-        for ((&active, &weight), &v) in self.active.iter().zip(&self.weight).zip(&v) {
-            // Inactive lanes add +0.0 (whatever the lane held), which changes no sum.
-            sum += if active { weight * (v - 0.5) } else { 0.0 };
-        }
-        if self.norm > 0.0 {
-            sum / self.norm
-        } else {
-            0.0
-        }
-    }
 }
 
 /// [`value2`] of `N` points at once, lane by lane the same operations (and bits).
@@ -957,11 +886,34 @@ mod tests {
                     "fbm x {x} y {y} o {octaves} ppm {ppm}"
                 );
             }
+            for octaves in 0..=6 {
+                let p = fbm2_points(
+                    [x, x + 0.3],
+                    [y, y - 0.2],
+                    0.3,
+                    octaves,
+                    [ppm, 2.0 * ppm],
+                    i,
+                );
+                let q = [
+                    fbm2_sequential(x, y, 0.3, octaves, ppm, i),
+                    fbm2_sequential(x + 0.3, y - 0.2, 0.3, octaves, 2.0 * ppm, i),
+                ];
+                assert_eq!(
+                    p.map(f32::to_bits),
+                    q.map(f32::to_bits),
+                    "points o {octaves}"
+                );
+            }
             let (c, r) = (cellular2(x, y, i), cellular2_sequential(x, y, i));
             assert_eq!(
                 (c.f1.to_bits(), c.f2.to_bits(), c.id),
                 (r.f1.to_bits(), r.f2.to_bits(), r.id)
             );
+            let (f1, id) = cellular_nearest_points([x, y], [y, x], i);
+            let r2 = cellular2_sequential(y, x, i);
+            assert_eq!((f1[0].to_bits(), id[0]), (r.f1.to_bits(), r.id));
+            assert_eq!((f1[1].to_bits(), id[1]), (r2.f1.to_bits(), r2.id));
         }
     }
 

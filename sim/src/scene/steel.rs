@@ -134,7 +134,7 @@ pub fn albedo<const N: usize>(
 #[inline(always)]
 fn painted<const N: usize>(t: &TexelLanes<N>, b: [f32; 3], grime: f32, rust: f32) -> [[f32; 3]; N] {
     let (u, v, ppm, seed) = (&t.u, &t.v, &t.px_per_m, &t.seed);
-    let g = fbm_lanes(u, v, 0.5, 3, ppm, seed, 0);
+    let g = fbm_points_seeded(u, v, 0.5, 3, ppm, seed, 0);
     let mut out = [[0.0_f32; 3]; N];
     for i in 0..N {
         out[i] = scale(b, 1.0 + 2.0 * grime * g[i]);
@@ -150,7 +150,7 @@ fn painted<const N: usize>(t: &TexelLanes<N>, b: [f32; 3], grime: f32, rust: f32
 fn rust_stains<const N: usize>(t: &TexelLanes<N>, rust: f32, out: &mut [[f32; 3]; N]) {
     let (u, v, ppm, seed) = (&t.u, &t.v, &t.px_per_m, &t.seed);
     // Stains stretched vertically (run-off), threshold on fbm; dark rims give corners.
-    let stain = fbm_lanes(
+    let stain = fbm_points_seeded(
         &u.map(|x| x * 1.6),
         &v.map(|y| y * 0.6),
         0.06,
@@ -189,7 +189,7 @@ fn paint_chips<const N: usize>(
     seed: &[u32; N],
     amount: f32,
 ) -> [f32; N] {
-    let mask_fbm = fbm_lanes(u, v, 0.12, 2, ppm, seed, 0);
+    let mask_fbm = fbm_points_seeded(u, v, 0.12, 2, ppm, seed, 0);
     let mut mask = [0.0_f32; N];
     let mut any = false;
     for i in 0..N {
@@ -198,7 +198,7 @@ fn paint_chips<const N: usize>(
     }
     // The mask is low-frequency: most batches lie wholly outside it (no chip in any lane:
     // the cells and outlines below would all be selected away).
-    if !any || amount <= 0.0 {
+    if !any {
         return [0.0; N];
     }
     let outline = value_lanes(
@@ -219,15 +219,14 @@ fn paint_chips<const N: usize>(
     out
 }
 
-/// Bolted panel of base colour `b`, bolt pitch `pitch_m` and bolt head radius `r_m`.
+/// Bolted panel of base colour `b`, bolt pitch `pitch` (m) and bolt head radius `r` (m).
 #[inline(always)]
 fn bolted_panel<const N: usize>(
     t: &TexelLanes<N>,
     b: [f32; 3],
-    pitch_m: f32,
-    r_m: f32,
+    pitch: f32,
+    r: f32,
 ) -> [[f32; 3]; N] {
-    let (pitch, r) = (pitch_m, r_m);
     // Reciprocals once: the per-point divisions become multiplications.
     let inv_pitch = 1.0 / pitch;
     let inv_r = 1.0 / r;
@@ -275,8 +274,8 @@ fn bolted_panel<const N: usize>(
 
     // Low-frequency mottling (0.3 m) and grime (12 mm), the streak modulation (4 x 20 mm)
     // and the chips.
-    let mottle = fbm_lanes(u, v, 0.3, 3, ppm, seed, 1);
-    let grime = fbm_lanes(u, v, 0.012, 2, ppm, seed, 2);
+    let mottle = fbm_points_seeded(u, v, 0.3, 3, ppm, seed, 1);
+    let grime = fbm_points_seeded(u, v, 0.012, 2, ppm, seed, 2);
     let streak_noise = value_lanes(
         u.map(|x| x * (1.0 / 0.004)),
         v.map(|y| y * (1.0 / 0.02)),
@@ -352,7 +351,7 @@ fn bolted_panel<const N: usize>(
 /// share a material but may lie on different faces (different seeds), so octaves are
 /// looked up lane by lane with their own seeds.
 #[inline(always)]
-fn fbm_lanes<const N: usize>(
+fn fbm_points_seeded<const N: usize>(
     u: &[f32; N],
     v: &[f32; N],
     scale_m: f32,
@@ -373,7 +372,7 @@ fn fbm_lanes<const N: usize>(
     out
 }
 
-/// [`cellular_nearest_points`] with a seed per lane (see [`fbm_lanes`]), at the chip
+/// [`cellular_nearest_points`] with a seed per lane (see [`fbm_points_seeded`]), at the chip
 /// lattice (`u / 5 mm`, seed `^ 0x1234`).
 #[inline(always)]
 fn cellular_nearest_lanes<const N: usize>(

@@ -11,13 +11,14 @@
 //! ramps of width `w` ([`aa_step`]), so a single sample per pixel does not alias (the
 //! renderer supersamples geometric edges separately).
 //!
-//! Cost: the renderer passes a per-thread [`NoiseCache`] ([`Material::albedo_cached`]):
-//! low-frequency fbm (finest octave >= 64 pixel footprints) is interpolated from a grid of 8
-//! samples per finest wavelength, a pure function of `uv` like the rest, and cellular
-//! feature points are hashed once per cell; the bolted panel evaluates its per-pixel value
-//! noise in one 4-lane batch. Band limits, ramps and texture coordinates multiply by
-//! densities and reciprocal sizes instead of dividing: a texel costs a dozen fewer
-//! divisions, which on this CPU take several times a multiplication's issue slots.
+//! Cost: painted steel and bolted panels, which fill the wrist camera's view, are lane
+//! kernels over many pixels at once ([`super::steel`], [`Material::albedo_lanes`]); the
+//! other textures run point by point with a per-thread [`NoiseCache`]
+//! ([`Material::albedo_cached`]): low-frequency fbm (finest octave >= 64 pixel footprints)
+//! is interpolated from a grid of 8 samples per finest wavelength, a pure function of `uv`
+//! like the rest, and cellular feature points are hashed once per cell. Band limits, ramps
+//! and texture coordinates multiply by densities and reciprocal sizes instead of dividing
+//! (a division takes several times a multiplication's issue slots).
 //!
 //! Corner content at the wrist working distance (0.3-0.6 m, one pixel ~ 0.17-0.34 mm with
 //! fx = 1745 px): gravel stones (5-25 mm), bolt heads, text-like glyph blocks (2-4 mm),
@@ -259,6 +260,15 @@ impl Material {
     ) -> [f32; 3] {
         let (u, v, ppm, seed) = self.texel(uv_m, face, px_per_m);
         let b = self.base_rgb;
+        if let Some(texture) = self.steel_texture() {
+            let t = TexelLanes {
+                u: [u],
+                v: [v],
+                px_per_m: [ppm],
+                seed: [seed],
+            };
+            return steel::albedo(texture, &t, b)[0];
+        }
         let a = self.accent_rgb;
         match self.texture {
             Texture::Uniform => b,
@@ -281,18 +291,8 @@ impl Material {
                 let seam = 1.0 - 0.4 * (1.0 - aa_step(0.002, 0.6 - seam_d, ppm));
                 scale(b, tone * pore * seam)
             }
-            Texture::Painted { .. } | Texture::BoltedPanel { .. } => match self.steel_texture() {
-                Some(texture) => {
-                    let t = TexelLanes {
-                        u: [u],
-                        v: [v],
-                        px_per_m: [ppm],
-                        seed: [seed],
-                    };
-                    steel::albedo(texture, &t, b)[0]
-                }
-                None => b,
-            },
+            // Served by the steel kernel above.
+            Texture::Painted { .. } | Texture::BoltedPanel { .. } => b,
             Texture::Label { glyph_m } => label(nc, b, a, u, v, ppm, seed, glyph_m),
             Texture::Louvres { pitch_m } => {
                 let f = fract01(v / pitch_m);
