@@ -10,10 +10,8 @@
 
 use std::time::Instant;
 
-use nalgebra::Vector3;
 use sim::render::{
     CameraIntrinsics, LightConditions, RayTable, SensorParams, render_rgbd_with_rays,
-    world_from_camera_looking_at,
 };
 use sim::scene::SubstationBuilder;
 
@@ -42,14 +40,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let hour: f64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(12.0);
     let scale: f64 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(1.0);
     let (scene, layout) = SubstationBuilder::new(1).build()?;
-    let target = layout.calibration_target_center;
-    let eye = target + layout.calibration_target_normal * 0.45 + Vector3::new(0.0, 0.08, 0.12);
-    let pose = world_from_camera_looking_at(
-        &eye,
-        &(target + Vector3::new(0.0, 0.0, 0.25)),
-        &Vector3::z(),
-    )
-    .ok_or("bad view")?;
+    let pose = layout.cabinet_wrist_view().ok_or("bad view")?;
     let rays = RayTable::new(&CameraIntrinsics::wrist().scaled(scale)?)?;
     let light = LightConditions::from_hour(hour);
     let sensor = SensorParams::wrist();

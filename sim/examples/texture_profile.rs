@@ -51,7 +51,7 @@ fn main() {
                         let a = material.albedo_lanes(
                             simd::max_level(),
                             black_box(&uv),
-                            &[1; 8],
+                            1,
                             &[px_per_m; 8],
                             &mut memo,
                         );

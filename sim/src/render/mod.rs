@@ -924,13 +924,7 @@ mod tests {
         let Ok(k) = CameraIntrinsics::wrist().scaled(0.25) else {
             panic!("scaled camera");
         };
-        let target = layout.calibration_target_center;
-        let eye = target + layout.calibration_target_normal * 0.45 + Vector3::new(0.0, 0.08, 0.12);
-        let Some(pose) = world_from_camera_looking_at(
-            &eye,
-            &(target + Vector3::new(0.0, 0.0, 0.25)),
-            &Vector3::z(),
-        ) else {
+        let Some(pose) = layout.cabinet_wrist_view() else {
             panic!("pose");
         };
         let light = LightConditions::from_hour(12.0);

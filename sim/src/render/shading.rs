@@ -405,23 +405,24 @@ impl AlbedoBatch {
             };
             waiting.push(i);
             if waiting.len() == ALBEDO_LANES {
-                flush(self.level, scene, key.0, waiting, hits, noise, out);
+                flush(self.level, scene, key, waiting, hits, noise, out);
             }
         }
-        for ((id, _), waiting) in &mut self.pending {
+        for (key, waiting) in &mut self.pending {
             if !waiting.is_empty() {
-                flush(self.level, scene, *id, waiting, hits, noise, out);
+                flush(self.level, scene, *key, waiting, hits, noise, out);
             }
         }
     }
 }
 
-/// Looks up the albedo of the (at most [`ALBEDO_LANES`]) hits `waiting` of material `id`
-/// at `level` and empties `waiting`: one batch of 16 with AVX-512, batches of 8 otherwise.
+/// Looks up the albedo of the (at most [`ALBEDO_LANES`]) hits `waiting` on face `key.1` of
+/// material `key.0` at `level` and empties `waiting`: one batch of 16 with AVX-512,
+/// batches of 8 otherwise.
 fn flush(
     level: simd::Level,
     scene: &Scene,
-    id: MaterialId,
+    (id, face): (MaterialId, u8),
     waiting: &mut Vec<usize>,
     hits: &[Option<SurfaceHit>],
     noise: &mut NoiseCache,
@@ -436,27 +437,29 @@ fn flush(
     };
     for first in (0..waiting.len()).step_by(step) {
         if step == ALBEDO_LANES {
-            lookup::<ALBEDO_LANES>(level, material, waiting, first, hits, noise, out);
+            lookup::<ALBEDO_LANES>(level, material, face, waiting, first, hits, noise, out);
         } else {
-            lookup::<{ ALBEDO_LANES / 2 }>(level, material, waiting, first, hits, noise, out);
+            lookup::<{ ALBEDO_LANES / 2 }>(level, material, face, waiting, first, hits, noise, out);
         }
     }
     waiting.clear();
 }
 
-/// One lane batch: the albedo of the hits `waiting[first..first + N]` (spare lanes repeat
-/// the last point; only the real lanes are written to `out`).
+/// One lane batch: the albedo of the hits `waiting[first..first + N]` on face `face`
+/// (spare lanes repeat the last point; only the real lanes are written to `out`).
+#[allow(clippy::too_many_arguments)]
 fn lookup<const N: usize>(
     level: simd::Level,
     material: &crate::scene::Material,
+    face: u8,
     waiting: &[usize],
     first: usize,
     hits: &[Option<SurfaceHit>],
     noise: &mut NoiseCache,
     out: &mut [[f32; 3]],
 ) {
-    let (uv, face, ppm) = gather::<N>(waiting, first, hits);
-    let albedo = material.albedo_lanes(level, &uv, &face, &ppm, noise);
+    let (uv, ppm) = gather::<N>(waiting, first, hits);
+    let albedo = material.albedo_lanes(level, &uv, face, &ppm, noise);
     for (&i, a) in waiting.iter().skip(first).zip(albedo) {
         if let Some(o) = out.get_mut(i) {
             *o = a;
@@ -470,9 +473,8 @@ fn gather<const N: usize>(
     waiting: &[usize],
     first: usize,
     hits: &[Option<SurfaceHit>],
-) -> ([[f64; 2]; N], [u8; N], [f32; N]) {
+) -> ([[f64; 2]; N], [f32; N]) {
     let mut uv = [[0.0; 2]; N];
-    let mut face = [0_u8; N];
     let mut ppm = [0.0_f32; N];
     let mut last = None;
     for k in 0..N {
@@ -484,8 +486,8 @@ fn gather<const N: usize>(
             last = Some(h);
         }
         if let Some(h) = last {
-            (uv[k], face[k], ppm[k]) = (h.uv_m, h.face, h.px_per_m);
+            (uv[k], ppm[k]) = (h.uv_m, h.px_per_m);
         }
     }
-    (uv, face, ppm)
+    (uv, ppm)
 }

@@ -27,7 +27,8 @@ use super::noise::{
     unit_f32, value_lanes,
 };
 
-/// Surface points of one texture lookup batch, one per lane.
+/// Surface points of one texture lookup batch, one per lane, on one face of one material
+/// (one texture seed).
 #[derive(Clone, Copy, Debug)]
 pub struct TexelLanes<const N: usize> {
     /// Texture coordinate u (m, wrapped to the texture period).
@@ -36,8 +37,8 @@ pub struct TexelLanes<const N: usize> {
     pub v: [f32; N],
     /// Pixel density on the surface (pixels per metre, clamped to the finest).
     pub px_per_m: [f32; N],
-    /// Texture seed of the point's material and face.
-    pub seed: [u32; N],
+    /// Texture seed of the material and face.
+    pub seed: u32,
 }
 
 impl<const N: usize> Default for TexelLanes<N> {
@@ -46,7 +47,7 @@ impl<const N: usize> Default for TexelLanes<N> {
             u: [0.0; N],
             v: [0.0; N],
             px_per_m: [0.0; N],
-            seed: [0; N],
+            seed: 0,
         }
     }
 }
@@ -133,8 +134,8 @@ pub fn albedo<const N: usize>(
 /// Painted steel of base colour `b`, grime contrast `grime` and rust coverage `rust`.
 #[inline(always)]
 fn painted<const N: usize>(t: &TexelLanes<N>, b: [f32; 3], grime: f32, rust: f32) -> [[f32; 3]; N] {
-    let (u, v, ppm, seed) = (&t.u, &t.v, &t.px_per_m, &t.seed);
-    let g = fbm_points_seeded(u, v, 0.5, 3, ppm, seed, 0);
+    let (u, v, ppm, seed) = (&t.u, &t.v, &t.px_per_m, t.seed);
+    let g = fbm2_points(*u, *v, 0.5, 3, *ppm, seed);
     let mut out = [[0.0_f32; 3]; N];
     for i in 0..N {
         out[i] = scale(b, 1.0 + 2.0 * grime * g[i]);
@@ -148,23 +149,22 @@ fn painted<const N: usize>(t: &TexelLanes<N>, b: [f32; 3], grime: f32, rust: f32
 /// Rust stains and chips over painted steel `out` with rust coverage `rust` (> 0).
 #[inline(always)]
 fn rust_stains<const N: usize>(t: &TexelLanes<N>, rust: f32, out: &mut [[f32; 3]; N]) {
-    let (u, v, ppm, seed) = (&t.u, &t.v, &t.px_per_m, &t.seed);
+    let (u, v, ppm, seed) = (&t.u, &t.v, &t.px_per_m, t.seed);
     // Stains stretched vertically (run-off), threshold on fbm; dark rims give corners.
-    let stain = fbm_points_seeded(
-        &u.map(|x| x * 1.6),
-        &v.map(|y| y * 0.6),
+    let stain = fbm2_points(
+        u.map(|x| x * 1.6),
+        v.map(|y| y * 0.6),
         0.06,
         5,
-        ppm,
-        seed,
-        0xabc,
+        *ppm,
+        seed ^ 0xabc,
     );
     let fine_noise = value_lanes(
         u.map(|x| x * (1.0 / 0.003)),
         v.map(|y| y * (1.0 / 0.003)),
-        *seed,
+        [seed; N],
     );
-    let chip = paint_chips(u, v, ppm, &seed.map(|s| s ^ 0x77), rust);
+    let chip = paint_chips(u, v, ppm, seed ^ 0x77, rust);
     let th = 0.5 + 0.3 * (1.0 - rust);
     for i in 0..N {
         let s = stain[i] + 0.5;
@@ -178,7 +178,7 @@ fn rust_stains<const N: usize>(t: &TexelLanes<N>, rust: f32, out: &mut [[f32; 3]
     }
 }
 
-/// Coverage (0..1) of paint chips with seed `seed` (per lane) and density `amount` (0..1):
+/// Coverage (0..1) of paint chips with seed `seed` and density `amount` (0..1):
 /// cells of a 5 mm lattice whose unit value is below a low-frequency mask (0.12 m fbm)
 /// flake off, with an outline perturbed by 1.2 mm value noise.
 #[inline(always)]
@@ -186,10 +186,10 @@ fn paint_chips<const N: usize>(
     u: &[f32; N],
     v: &[f32; N],
     ppm: &[f32; N],
-    seed: &[u32; N],
+    seed: u32,
     amount: f32,
 ) -> [f32; N] {
-    let mask_fbm = fbm_points_seeded(u, v, 0.12, 2, ppm, seed, 0);
+    let mask_fbm = fbm2_points(*u, *v, 0.12, 2, *ppm, seed);
     let mut mask = [0.0_f32; N];
     let mut any = false;
     for i in 0..N {
@@ -204,9 +204,13 @@ fn paint_chips<const N: usize>(
     let outline = value_lanes(
         u.map(|x| x * (1.0 / CHIP_OUTLINE_M)),
         v.map(|y| y * (1.0 / CHIP_OUTLINE_M)),
-        seed.map(|s| s ^ 0x9999),
+        [seed ^ 0x9999; N],
     );
-    let (f1, id) = cellular_nearest_lanes(u, v, seed);
+    let (f1, id) = cellular_nearest_points(
+        u.map(|a| a * (1.0 / CHIP_CELL_M)),
+        v.map(|a| a * (1.0 / CHIP_CELL_M)),
+        seed ^ 0x1234,
+    );
     let mut out = [0.0_f32; N];
     for i in 0..N {
         let w = band_weight(CHIP_CELL_M, ppm[i]);
@@ -233,7 +237,7 @@ fn bolted_panel<const N: usize>(
     let wp = pitch * 5.0;
     let hp = pitch * 4.0;
     let margin = 0.5 * pitch;
-    let (u, v, ppm, seed) = (&t.u, &t.v, &t.px_per_m, &t.seed);
+    let (u, v, ppm, seed) = (&t.u, &t.v, &t.px_per_m, t.seed);
 
     // Panel geometry: panel indices, position in the panel, seams, nearest border bolt.
     let mut panel_k = [0.0_f32; N];
@@ -252,7 +256,7 @@ fn bolted_panel<const N: usize>(
         let (x, y) = (u[i] - pi as f32 * wp, v[i] - pj as f32 * hp);
         (pu[i], pv[i]) = (x, y);
         panel_key[i] = (pi.wrapping_mul(131) ^ pj) as u32;
-        let tone = 0.85 + 0.3 * unit_f32(hash2(pi, pj, seed[i]));
+        let tone = 0.85 + 0.3 * unit_f32(hash2(pi, pj, seed));
         let seam_d = x.min(wp - x).min(y).min(hp - y);
         let seam = 0.25 + 0.75 * aa_step(0.0015, seam_d, ppm[i]);
         panel_k[i] = tone * seam;
@@ -274,14 +278,14 @@ fn bolted_panel<const N: usize>(
 
     // Low-frequency mottling (0.3 m) and grime (12 mm), the streak modulation (4 x 20 mm)
     // and the chips.
-    let mottle = fbm_points_seeded(u, v, 0.3, 3, ppm, seed, 1);
-    let grime = fbm_points_seeded(u, v, 0.012, 2, ppm, seed, 2);
+    let mottle = fbm2_points(*u, *v, 0.3, 3, *ppm, seed ^ 1);
+    let grime = fbm2_points(*u, *v, 0.012, 2, *ppm, seed ^ 2);
     let streak_noise = value_lanes(
         u.map(|x| x * (1.0 / 0.004)),
         v.map(|y| y * (1.0 / 0.02)),
-        *seed,
+        [seed; N],
     );
-    let chip = paint_chips(u, v, ppm, &seed.map(|s| s ^ 0x3c3c), PANEL_CHIP_AMOUNT);
+    let chip = paint_chips(u, v, ppm, seed ^ 0x3c3c, PANEL_CHIP_AMOUNT);
 
     // Rust streaks run down (-v) from the top-row bolts and from the side-column bolts above
     // the point; each bolt bleeds with its own strength `s_b` and profile
@@ -310,7 +314,7 @@ fn bolted_panel<const N: usize>(
             let on = reaches && e >= -STREAK_MIN_EXPONENT;
             // Off lanes take exp(0), kept finite and then dropped.
             exponent[k][i] = if on { e } else { 0.0 };
-            let s = unit_f32(hash2(id, panel_key[i] as i32, seed[i] ^ 0x5151));
+            let s = unit_f32(hash2(id, panel_key[i] as i32, seed ^ 0x5151));
             strength[k][i] = if on { s } else { 0.0 };
         }
     }
@@ -345,54 +349,6 @@ fn bolted_panel<const N: usize>(
         out[i] = if d[i] < 1.4 * r { bolted } else { c };
     }
     out
-}
-
-/// [`fbm2_points`] with the seed of each lane `seed[i] ^ salt`: the points of a batch
-/// share a material but may lie on different faces (different seeds), so octaves are
-/// looked up lane by lane with their own seeds.
-#[inline(always)]
-fn fbm_points_seeded<const N: usize>(
-    u: &[f32; N],
-    v: &[f32; N],
-    scale_m: f32,
-    octaves: u32,
-    ppm: &[f32; N],
-    seed: &[u32; N],
-    salt: u32,
-) -> [f32; N] {
-    // One face (the common case): one seed for all lanes.
-    let s0 = seed[0] ^ salt;
-    if seed.iter().all(|&s| s ^ salt == s0) {
-        return fbm2_points(*u, *v, scale_m, octaves, *ppm, s0);
-    }
-    let mut out = [0.0_f32; N];
-    for i in 0..N {
-        out[i] = fbm2_points([u[i]], [v[i]], scale_m, octaves, [ppm[i]], seed[i] ^ salt)[0];
-    }
-    out
-}
-
-/// [`cellular_nearest_points`] with a seed per lane (see [`fbm_points_seeded`]), at the chip
-/// lattice (`u / 5 mm`, seed `^ 0x1234`).
-#[inline(always)]
-fn cellular_nearest_lanes<const N: usize>(
-    u: &[f32; N],
-    v: &[f32; N],
-    seed: &[u32; N],
-) -> ([f32; N], [u32; N]) {
-    let x = u.map(|a| a * (1.0 / CHIP_CELL_M));
-    let y = v.map(|a| a * (1.0 / CHIP_CELL_M));
-    let s0 = seed[0] ^ 0x1234;
-    if seed.iter().all(|&s| s ^ 0x1234 == s0) {
-        return cellular_nearest_points(x, y, s0);
-    }
-    let mut f1 = [0.0_f32; N];
-    let mut id = [0_u32; N];
-    for i in 0..N {
-        let (f, h) = cellular_nearest_points([x[i]], [y[i]], seed[i] ^ 0x1234);
-        (f1[i], id[i]) = (f[0], h[0]);
-    }
-    (f1, id)
 }
 
 /// `x as i32` for `0 <= x < 2^22` (the bolt indices): floor and the exponent-bias trick of
@@ -447,15 +403,17 @@ fn mix(a: [f32; 3], b: [f32; 3], t: f32) -> [f32; 3] {
 mod tests {
     use super::*;
 
-    fn points<const N: usize>(k: usize, faces: bool) -> TexelLanes<N> {
-        let mut t = TexelLanes::default();
+    fn points<const N: usize>(k: usize) -> TexelLanes<N> {
+        let mut t = TexelLanes {
+            seed: hash_u32(k as u32 % 5),
+            ..TexelLanes::default()
+        };
         for i in 0..N {
             let j = (k * N + i) as f32;
             t.u[i] = 0.3 + j * 0.000_31 + (k % 7) as f32 * 0.013;
             t.v[i] = 0.2 + (j * 0.618_034).fract() * 0.4;
             // Densities from far (features below the band limit) to very close.
             t.px_per_m[i] = [150.0, 900.0, 2600.0, 3800.0, 12_000.0, 1e5][(k + i / 3) % 6];
-            t.seed[i] = if faces { hash_u32(i as u32 % 2) } else { 77 };
         }
         t
     }
@@ -488,7 +446,7 @@ mod tests {
                 u: [t.u[i]],
                 v: [t.v[i]],
                 px_per_m: [t.px_per_m[i]],
-                seed: [t.seed[i]],
+                seed: t.seed,
             };
             let s = albedo(texture, &one, b)[0];
             assert_eq!(
@@ -500,14 +458,13 @@ mod tests {
         }
     }
 
-    /// Lane `i` of an 8-lane batch is the 1-lane texture at point `i`, with one face or
-    /// mixed faces per batch.
+    /// Lane `i` of an 8-lane batch is the 1-lane texture at point `i` (seeds of five faces).
     #[test]
     fn lanes_equal_the_scalar_texture_bit_for_bit() {
         let b = [0.4, 0.42, 0.37];
         for texture in TEXTURES {
             for k in 0..2000 {
-                let t = points::<8>(k, k % 3 == 0);
+                let t = points::<8>(k);
                 let wide = albedo(texture, &t, b);
                 assert_lanes_are_points(texture, &t, b, &wide, &format!("batch {k}"));
             }
@@ -520,7 +477,7 @@ mod tests {
         let b = [0.45, 0.47, 0.42];
         for texture in TEXTURES {
             for k in 0..300 {
-                let t = points::<16>(k, k % 4 == 1);
+                let t = points::<16>(k);
                 for level in [
                     simd::Level::Baseline,
                     simd::Level::Avx2,
@@ -556,7 +513,7 @@ mod tests {
                     u: [0.0; 8],
                     v: [0.0; 8],
                     px_per_m: [3800.0; 8],
-                    seed: [5; 8],
+                    seed: 5,
                 };
                 for i in 0..8 {
                     t.u[i] = (col * 8 + i) as f32 * 0.001;

@@ -132,6 +132,20 @@ impl SubstationLayout {
     pub fn target_conductor(&self) -> Option<&Catenary> {
         self.conductors.get(self.target_phase)
     }
+
+    /// `world_from_camera` of a typical calibration view of the wrist camera: 0.45 m in
+    /// front of the calibration cabinet's face (8 cm aside, 12 cm up), looking at a point
+    /// 25 cm above the face's centre. The renderer's benchmark and profiling view.
+    #[must_use]
+    pub fn cabinet_wrist_view(&self) -> Option<Isometry3<f64>> {
+        let target = self.calibration_target_center;
+        let eye = target + self.calibration_target_normal * 0.45 + Vector3::new(0.0, 0.08, 0.12);
+        robot::se3::world_from_camera_looking_at(
+            &eye,
+            &(target + Vector3::new(0.0, 0.0, 0.25)),
+            &Vector3::z(),
+        )
+    }
 }
 
 /// Builds the bay from a seed.

@@ -208,43 +208,40 @@ impl Material {
         self.steel_texture().is_some()
     }
 
-    /// [`Self::albedo_at_density`] at `N` points at once (lane `i` is the albedo of point
-    /// `i`, bit for bit): one vector evaluation at `level` (or the best level below it that
-    /// this CPU has) for textures with a lane kernel (see [`Self::has_lane_texture`]), point
-    /// by point for the others.
+    /// [`Self::albedo_at_density`] at `N` points of face `face` at once (lane `i` is the
+    /// albedo of point `i`, bit for bit): one vector evaluation at `level` (or the best level
+    /// below it that this CPU has) for textures with a lane kernel (see
+    /// [`Self::has_lane_texture`]), point by point for the others.
     #[must_use]
     pub fn albedo_lanes<const N: usize>(
         &self,
         level: simd::Level,
         uv_m: &[[f64; 2]; N],
-        face: &[u8; N],
+        face: u8,
         px_per_m: &[f32; N],
         nc: &mut NoiseCache,
     ) -> [[f32; 3]; N] {
         let Some(texture) = self.steel_texture() else {
             let mut out = [[0.0; 3]; N];
             for (i, o) in out.iter_mut().enumerate() {
-                *o = self.albedo_at_density(uv_m[i], face[i], px_per_m[i], nc);
+                *o = self.albedo_at_density(uv_m[i], face, px_per_m[i], nc);
             }
             return out;
         };
-        let mut t = TexelLanes::default();
+        let mut t = TexelLanes {
+            seed: self.face_seed(face),
+            ..TexelLanes::default()
+        };
         for i in 0..N {
-            (t.u[i], t.v[i], t.px_per_m[i], t.seed[i]) = self.texel(uv_m[i], face[i], px_per_m[i]);
+            (t.u[i], t.v[i], t.px_per_m[i]) = texel(uv_m[i], px_per_m[i]);
         }
         steel::albedo_at(level, texture, &t, self.base_rgb)
     }
 
-    /// The texture's lookup point: wrapped f32 coordinates, clamped pixel density and the
-    /// seed of the face.
+    /// The texture seed of face `face`.
     #[inline(always)]
-    fn texel(&self, uv_m: [f64; 2], face: u8, px_per_m: f32) -> (f32, f32, f32, u32) {
-        // Keep f32 precision: textures repeat every 4096 m, far beyond the scene.
-        let u = wrap(uv_m[0], TEXTURE_PERIOD_M) as f32;
-        let v = wrap(uv_m[1], TEXTURE_PERIOD_M) as f32;
-        // (A NaN density becomes the finest.)
-        let ppm = px_per_m.min(1.0 / MIN_FOOTPRINT_M);
-        (u, v, ppm, hash_u32(self.seed ^ (u32::from(face) << 24)))
+    fn face_seed(&self, face: u8) -> u32 {
+        hash_u32(self.seed ^ (u32::from(face) << 24))
     }
 
     /// [`Self::albedo_cached`] given the pixel density `px_per_m` (pixels per metre on the
@@ -258,14 +255,15 @@ impl Material {
         px_per_m: f32,
         nc: &mut NoiseCache,
     ) -> [f32; 3] {
-        let (u, v, ppm, seed) = self.texel(uv_m, face, px_per_m);
+        let (u, v, ppm) = texel(uv_m, px_per_m);
+        let seed = self.face_seed(face);
         let b = self.base_rgb;
         if let Some(texture) = self.steel_texture() {
             let t = TexelLanes {
                 u: [u],
                 v: [v],
                 px_per_m: [ppm],
-                seed: [seed],
+                seed,
             };
             return steel::albedo(texture, &t, b)[0];
         }
@@ -351,6 +349,16 @@ impl Material {
             }
         }
     }
+}
+
+/// A texture lookup point: wrapped f32 coordinates and the clamped pixel density.
+#[inline(always)]
+fn texel(uv_m: [f64; 2], px_per_m: f32) -> (f32, f32, f32) {
+    // Keep f32 precision: textures repeat every 4096 m, far beyond the scene.
+    let u = wrap(uv_m[0], TEXTURE_PERIOD_M) as f32;
+    let v = wrap(uv_m[1], TEXTURE_PERIOD_M) as f32;
+    // (A NaN density becomes the finest.)
+    (u, v, px_per_m.min(1.0 / MIN_FOOTPRINT_M))
 }
 
 /// Smallest pixel footprint textures resolve (m).
