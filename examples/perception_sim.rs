@@ -47,8 +47,8 @@ use control::perception::{PerceptionError, WIRE_RADIUS_M};
 use msgs::std_msgs::Header;
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use sim::cameras::{camera_info, color_image, depth_image};
+use sim::config::DepthEncoding;
 use sim::render::{CameraIntrinsics, LightConditions, SensorParams, render_rgbd_with_rays};
-use sim::scenario::DepthEncoding;
 use sim::scene::substation::SubstationBuilder;
 
 /// Range of the height above the ground of the point the camera looks from (m), drawn per

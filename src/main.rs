@@ -9,7 +9,6 @@ use clap::{Parser, Subcommand};
 mod cmd;
 mod experiment;
 mod import;
-mod judge;
 
 /// Substation grounding-rod robot: log-centric hand-eye self-calibration and tasks.
 #[derive(Debug, Parser)]
@@ -42,6 +41,8 @@ enum Command {
     /// Check a recording: `motion` (limits, speeds, accelerations, collisions).
     #[command(subcommand)]
     Check(cmd::check::CheckCommand),
+    /// List every parameter a scenario's pipeline and world read: key, default, unit, value.
+    Params(cmd::params::ParamsArgs),
     /// Print a recording's text log (`/rosout`: stages, drivers, task events) in time order.
     Log(cmd::log::LogArgs),
 }
@@ -59,6 +60,7 @@ fn main() -> ExitCode {
         Command::View(args) => cmd::view::run(&args),
         Command::Check(command) => cmd::check::run(&command),
         Command::Log(args) => cmd::log::run(&args),
+        Command::Params(args) => cmd::params::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -7,15 +7,11 @@
 mod cli;
 use cli::rodlog;
 
-use std::path::Path;
-
 #[test]
 fn board_calibration_of_imported_shecar_matches_the_reference() {
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/shecar");
-    if !data.join("handposes.txt").is_file() {
-        eprintln!("skipped: shecar sample not found at {}", data.display());
+    let Some(data) = testkit::shared_data("shecar", "board calibration of shecar") else {
         return;
-    }
+    };
     let tmp = tempfile::tempdir().expect("tempdir");
     let rec = tmp.path().join("shecar.mcap").display().to_string();
     let import = rodlog(&[

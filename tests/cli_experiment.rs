@@ -6,8 +6,6 @@
 mod cli;
 use cli::rodlog;
 
-use std::path::Path;
-
 #[test]
 fn matchers_smoke_run_writes_report_results_and_pictures() {
     let tmp = tempfile::tempdir().expect("tempdir");
@@ -37,9 +35,11 @@ fn matchers_smoke_run_writes_report_results_and_pictures() {
     assert_eq!(results["experiment"], "matchers");
     assert!(results["rodlog_version"].is_string());
     assert_eq!(results["parameters"]["pairs_per_set"], 2);
-    let shecar = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/shecar/handposes.txt")
-        .is_file();
+    let shecar = testkit::shared_data(
+        "shecar/handposes.txt",
+        "the matchers experiment's shecar set",
+    )
+    .is_some();
     let sets = if shecar { 3 } else { 1 };
     let seeds = results["seeds"].as_array().expect("seeds");
     assert!(seeds.len() >= 2 * (sets - 1) + 2, "seeds {seeds:?}");

@@ -212,11 +212,9 @@ fn folder_import_refuses_inconsistent_datasets_clearly() {
 
 #[test]
 fn shecar_import_has_18_views_with_scaled_intrinsics() {
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/shecar");
-    if !data.join("handposes.txt").is_file() {
-        eprintln!("skipped: shecar sample not found at {}", data.display());
+    let Some(data) = testkit::shared_data("shecar", "shecar import") else {
         return;
-    }
+    };
     let tmp = tempfile::tempdir().expect("tempdir");
     let out = tmp.path().join("shecar.mcap");
     let run = rodlog(&[

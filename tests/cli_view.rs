@@ -3,7 +3,7 @@
 //! archetypes and row counts are checked against the MCAP they came from.
 //!
 //! Without the venv (`RODLOG_REF_VENV`, default `<repo>/.venv-ref`) the checks that need
-//! `rerun` print a notice and pass, unless `RODLOG_INTEROP_REQUIRED=1` (CI), where they fail;
+//! `rerun` print a notice and pass, unless `RODLOG_NO_SKIP=1` (CI), where they fail;
 //! what needs no venv (the file is an RRF2 stream, the CLI's counts) is always checked.
 
 #[path = "support/fixture.rs"]

@@ -9,7 +9,7 @@
 //!
 //! The Python tools come from the venv of `scripts/venv.sh`, found via `RODLOG_REF_VENV`
 //! (default `<repo>/.venv-ref`). Without it these tests print a notice and pass, unless
-//! `RODLOG_INTEROP_REQUIRED=1` (set by `scripts/interop/run.sh`, i.e. CI), where they fail.
+//! `RODLOG_NO_SKIP=1` (set by `scripts/interop/run.sh`, i.e. CI), where they fail.
 
 #[path = "support/fixture.rs"]
 mod fixture;

@@ -119,7 +119,7 @@ fn at_the_end_of_twilight_the_handle_loses_its_colour_confirmation() {
 #[test]
 fn the_16uc1_seam_still_finds_the_wire() {
     let mut protocol = Protocol::new(SCALE).expect("scaled wrist camera");
-    protocol.encoding = sim::scenario::DepthEncoding::U16Millimetres;
+    protocol.encoding = sim::config::DepthEncoding::U16Millimetres;
     protocol.captures = 2;
     let trials = run_condition(&protocol, 200..202, &DAYLIGHT).expect("simulation runs");
     for t in &trials {

@@ -6,7 +6,7 @@
 //!
 //! The peer runs in the venv of `scripts/venv.sh` (`RODLOG_REF_VENV`, default
 //! `<repo>/.venv-ref`). Without it the test prints a notice and passes, unless
-//! `RODLOG_INTEROP_REQUIRED=1` (CI), where it fails.
+//! `RODLOG_NO_SKIP=1` (CI), where it fails.
 
 #[path = "support/cli.rs"]
 mod cli;

@@ -18,6 +18,10 @@
 //!
 //! Run: `cargo bench -p calib --bench sift`.
 
+// Wall-clock timings and hashed sets of a test, bench or example: not a stage, so the
+// crate's determinism lints do not apply here.
+#![allow(clippy::disallowed_methods, clippy::disallowed_types)]
+
 use std::hint::black_box;
 use std::time::Instant;
 

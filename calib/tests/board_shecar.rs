@@ -8,6 +8,10 @@
 //! `scripts/board/compare_corners.py` (comparison with OpenCV's `findChessboardCorners` +
 //! `cornerSubPix`).
 
+// Wall-clock timings and hashed sets of a test, bench or example: not a stage, so the
+// crate's determinism lints do not apply here.
+#![allow(clippy::disallowed_methods, clippy::disallowed_types)]
+
 use std::path::PathBuf;
 
 use calib::board::{BoardOptions, BoardSpec, calibrate_board_views, theia_radial_camera};
@@ -15,16 +19,8 @@ use calib::handeye::{self, HandEyeOptions, Method};
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
 fn data_dir() -> Option<PathBuf> {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/shecar");
-    if dir.join("handposes.txt").is_file() {
-        Some(dir)
-    } else {
-        eprintln!(
-            "NOTICE: {} absent, shecar board test skipped",
-            dir.display()
-        );
-        None
-    }
+    testkit::shared_data("shecar/handposes.txt", "shecar board test")
+        .and_then(|p| p.parent().map(std::path::Path::to_path_buf))
 }
 
 /// `handposes.txt`: 12 numbers per line, a 3x4 `[R | t]` column by column (base_from_tool0).

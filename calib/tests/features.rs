@@ -409,14 +409,12 @@ fn results_do_not_depend_on_thread_count() {
 }
 
 fn shecar_dir() -> Option<std::path::PathBuf> {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/shecar");
-    dir.join("00.jpg").exists().then_some(dir)
+    testkit::shared_data("shecar", "shecar homography matching")
 }
 
 #[test]
 fn shecar_image_matches_its_homography_warp() {
     let Some(dir) = shecar_dir() else {
-        eprintln!("skipped: ../shared/data/shecar not found next to the repository");
         return;
     };
     let full = calib::features::command::load_gray(&dir.join("00.jpg")).expect("load");

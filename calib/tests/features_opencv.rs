@@ -25,18 +25,7 @@ fn repo() -> PathBuf {
 }
 
 fn python() -> Option<PathBuf> {
-    let venv =
-        std::env::var_os("RODLOG_REF_VENV").map_or_else(|| repo().join(".venv-ref"), PathBuf::from);
-    let py = venv.join("bin/python");
-    if py.exists() {
-        Some(py)
-    } else {
-        eprintln!(
-            "skipped: no reference venv at {} (scripts/venv.sh makes it)",
-            venv.display()
-        );
-        None
-    }
+    testkit::venv_tool("python", "OpenCV feature parity")
 }
 
 fn reference(py: &Path, args: &[&str]) -> serde_json::Value {
@@ -167,11 +156,9 @@ fn our_pairs(r: &MatchResult) -> Vec<(f64, f64, u32, f64, f64)> {
 #[test]
 fn orb_bf_gms_at_least_matches_opencv_on_known_homographies() {
     let Some(py) = python() else { return };
-    let shecar = repo().join("../shared/data/shecar");
-    if !shecar.join("00.jpg").exists() {
-        eprintln!("skipped: {} not found", shecar.display());
+    let Some(shecar) = testkit::shared_data("shecar", "ORB+BF+GMS against OpenCV on shecar") else {
         return;
-    }
+    };
     let cases = [
         (
             "00.jpg",

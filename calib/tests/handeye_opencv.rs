@@ -30,19 +30,7 @@ fn repo_root() -> PathBuf {
 }
 
 fn venv_python() -> Option<PathBuf> {
-    let venv = std::env::var_os("RODLOG_REF_VENV")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| repo_root().join(".venv-ref"));
-    let python = venv.join("bin").join("python");
-    if python.exists() {
-        Some(python)
-    } else {
-        eprintln!(
-            "NOTICE: reference venv {} absent (run scripts/venv.sh); OpenCV hand-eye test skipped",
-            venv.display()
-        );
-        None
-    }
+    testkit::venv_tool("python", "OpenCV hand-eye test")
 }
 
 fn stamped(poses: &[Isometry3<f64>]) -> Vec<StampedPose> {

@@ -3,8 +3,12 @@
 //! USAC_ACCURATE; `estimateAffine3D(force_rotation)` for Umeyama parity).
 //!
 //! Needs the reference venv (`scripts/venv.sh`; path from `RODLOG_REF_VENV`, default
-//! `<repo>/.venv-ref`); skipped with a notice when it is absent. Prints the accuracy table
+//! `<repo>/.venv-ref`); skipped with a notice when it is absent (`testkit`: never in CI). Prints the accuracy table
 //! (`cargo test -p calib --test relpose_opencv -- --nocapture`).
+
+// Wall-clock timings and hashed sets of a test, bench or example: not a stage, so the
+// crate's determinism lints do not apply here.
+#![allow(clippy::disallowed_methods, clippy::disallowed_types)]
 
 #[path = "relpose_support.rs"]
 mod support;
@@ -34,19 +38,7 @@ mod relpose {
     }
 
     fn venv_python() -> Option<PathBuf> {
-        let venv = std::env::var_os("RODLOG_REF_VENV")
-            .map(PathBuf::from)
-            .unwrap_or_else(|| repo_root().join(".venv-ref"));
-        let python = venv.join("bin").join("python");
-        if python.exists() {
-            Some(python)
-        } else {
-            eprintln!(
-                "NOTICE: reference venv {} absent (run scripts/venv.sh); OpenCV relpose test skipped",
-                venv.display()
-            );
-            None
-        }
+        testkit::venv_tool("python", "OpenCV relpose test")
     }
 
     fn pose_of(v: &Value) -> Option<Isometry3<f64>> {

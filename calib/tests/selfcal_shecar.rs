@@ -2,6 +2,10 @@
 //! dataset 2): median `B X = X A` rotation residual over its 153 pairs and X against the
 //! README's board reference. Skips with a notice when the data is absent.
 
+// Wall-clock timings and hashed sets of a test, bench or example: not a stage, so the
+// crate's determinism lints do not apply here.
+#![allow(clippy::disallowed_methods, clippy::disallowed_types)]
+
 use std::path::{Path, PathBuf};
 
 use calib::handeye::RelativeMotion;
@@ -11,8 +15,8 @@ use calib::selfcal::{CalibView, Mode, SelfCalParams, self_calibrate};
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
 fn data_dir() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/shecar");
-    dir.join("handposes.txt").is_file().then_some(dir)
+    testkit::shared_data("shecar/handposes.txt", "shecar self-calibration")
+        .and_then(|p| p.parent().map(Path::to_path_buf))
 }
 
 /// `handposes.txt`: 3x4 `[R | t]` column by column = base_from_tool0.
@@ -56,9 +60,6 @@ fn camera(dir: &Path, width: u32, height: u32) -> CameraModel {
 #[test]
 fn selfcal_shecar_mono_residual_and_board_reference() {
     let Some(dir) = data_dir() else {
-        eprintln!(
-            "NOTICE: ../shared/data/shecar is absent: skipping the shecar self-calibration test"
-        );
         return;
     };
     let poses = hand_poses(&dir);

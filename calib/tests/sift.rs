@@ -10,7 +10,6 @@
 //!   `RODLOG_REF_VENV`): keypoint count within 20% and repeatability under the warp at
 //!   least 90% of OpenCV's.
 
-use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use calib::features::GrayBuf;
@@ -21,13 +20,9 @@ use calib::features::sift::{
 use calib::features::synth::{apply_homography, similarity, textured_image, warp_homography};
 use nalgebra::Matrix3;
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
 /// A 640x512 crop of shecar 00 (or a synthetic scene).
 fn frame() -> GrayBuf {
-    match load_gray(&repo().join("../shared/data/shecar/00.jpg")) {
+    match load_gray(&testkit::shared_data_dir().join("shecar/00.jpg")) {
         Ok(full) => GrayBuf {
             data: crop_resize(&full, 640, 512).into_raw(),
             width: 640,
@@ -131,13 +126,9 @@ fn repeatability(ka: &[(f64, f64)], kb: &[(f64, f64)], h: &Matrix3<f64>) -> f64 
 
 #[test]
 fn keypoint_count_and_repeatability_match_opencv() {
-    let venv =
-        std::env::var_os("RODLOG_REF_VENV").map_or_else(|| repo().join(".venv-ref"), PathBuf::from);
-    let py = venv.join("bin/python");
-    if !py.exists() {
-        eprintln!("skipped: no reference venv at {}", venv.display());
+    let Some(py) = testkit::venv_tool("python", "SIFT against OpenCV") else {
         return;
-    }
+    };
     let a = frame();
     let h = warp();
     let b = warp_homography(&a, &h, 640, 512, 0).expect("warp");

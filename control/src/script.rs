@@ -159,18 +159,12 @@ impl ScriptCommand {
         duration_s: f64,
     ) -> Result<Self, ScriptError> {
         let at = RobotTime::from_secs_f64(t_s).map_err(|_| ScriptError::Time { index, t_s })?;
-        let (min, max) = match kind {
-            "joints" => (6, 6),
-            "lift" => (1, 1),
-            "base" => (3, 3),
-            "clamp" => (1, 2),
-            "capture" => (0, 0),
-            _ => {
-                return Err(ScriptError::UnknownKind {
-                    index,
-                    kind: kind.to_owned(),
-                });
-            }
+        let Some((min, max)) = scenario::CommandKind::parse(kind).map(scenario::CommandKind::arity)
+        else {
+            return Err(ScriptError::UnknownKind {
+                index,
+                kind: kind.to_owned(),
+            });
         };
         if values.len() < min || values.len() > max {
             return Err(ScriptError::Arity {
@@ -341,6 +335,18 @@ impl ScriptStage {
             next: 0,
             latency: DEFAULT_LATENCY,
         }
+    }
+
+    /// The stage of a scenario's `[[command]]` list.
+    ///
+    /// # Errors
+    /// The first [`ScriptError`] (a time beyond the robot clock, a value out of range).
+    pub fn from_commands(commands: &[scenario::Command]) -> Result<Self, ScriptError> {
+        Self::from_parts(
+            commands
+                .iter()
+                .map(|c| (c.t_s, c.kind.as_str(), c.values.as_slice(), c.duration_s)),
+        )
     }
 
     /// Builds the list from plain parts `(t_s, kind, values, duration_s)`, indexed in order.

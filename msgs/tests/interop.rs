@@ -4,7 +4,7 @@
 //! For every sample: both decode our bytes and re-encode them to exactly our bytes; rosbags
 //! accepts our `.msg` texts as identical to its Jazzy definitions; rosbags' big-endian
 //! encoding decodes in Rust to the original message. Needs the venv (`RODLOG_REF_VENV`,
-//! default `<repo>/.venv-ref`); skipped with a notice when it is absent.
+//! default `<repo>/.venv-ref`); skipped with a notice when it is absent (`testkit`: never in CI).
 
 mod common;
 
@@ -14,19 +14,15 @@ use std::process::Command;
 use msgs::Msg;
 
 fn venv_python() -> Option<PathBuf> {
-    let venv = std::env::var_os("RODLOG_REF_VENV")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../.venv-ref"));
+    let venv = testkit::ref_venv("rosbags/mcap-ros2 interop")?;
     // Canonical path: python finds its venv (pyvenv.cfg) from the path it is started by.
     let venv = std::fs::canonicalize(venv).ok()?;
-    let python = venv.join("bin/python");
-    python.exists().then_some(python)
+    Some(venv.join("bin/python"))
 }
 
 #[test]
 fn rosbags_and_mcap_ros2_agree_byte_for_byte() {
     let Some(python) = venv_python() else {
-        println!("SKIPPED: reference venv not found (set RODLOG_REF_VENV or run scripts/venv.sh)");
         return;
     };
     let dir = std::env::temp_dir().join(format!("rodlog-msgs-interop-{}", std::process::id()));

@@ -1,11 +1,20 @@
-//! MCAP writer, the deterministic stage runner and the live runtime.
+//! Recording: the MCAP writer, the deterministic stage runner, the simulation scheduler, the
+//! live runtime, and the test world with its two small stages.
 //!
-//! So far: [`McapSink`], the MCAP writer of rodlog's log (DESIGN.md section 3).
+//! - [`mcap_writer`]: [`McapSink`], the MCAP writer (ROS 2 profile, one channel per topic and
+//!   producer, chunked, indexed, finished on every exit path).
+//! - [`sink`]: the [`Sink`] trait the stream goes to (MCAP, memory, the Rerun sink elsewhere).
+//! - [`runner`]: [`Runner`], the deterministic merge of inputs and stage outputs that record
+//!   and replay share.
+//! - [`scheduler`]: [`Scheduler`], a world stepped in lockstep with the runner.
+//! - [`live`]: wall-clock pacing and hardware drivers (tokio).
+//! - [`session`]: [`record`], one recording from a world, stages and a header.
+//! - [`test_world`], [`stages`]: a small deterministic world and two stages that exercise the
+//!   runner (`arm_sweep`).
 
 pub mod live;
 pub mod mcap_writer;
 pub mod runner;
-pub mod scenario;
 pub mod scheduler;
 pub mod session;
 pub mod sink;
@@ -18,7 +27,6 @@ pub use mcap_writer::{
     library_string,
 };
 pub use runner::{Envelope, Popped, Runner, RunnerError, Source};
-pub use scenario::{Params, Scenario, ScenarioError};
 pub use scheduler::{Scheduler, SchedulerError, SinkFanout, is_command_topic};
 pub use session::{
     RecordError, RecordOptions, RecordSummary, RecordingHeader, StopCondition, record,

@@ -1,6 +1,10 @@
 //! The live runtime (tokio): wall-clock pacing, driver tasks, bounded channels, a sink
 //! thread, Ctrl-C.
 //!
+//! The one place of the recorder that reads the wall clock: it converts it to robot time
+//! once, at the edge, and stages only ever see the robot time it hands them.
+#![allow(clippy::disallowed_methods)]
+//!
 //! Two shapes share the sink side (a dedicated thread owning the [`SinkFanout`], fed by a
 //! bounded channel; `finish()` runs on every exit path, including errors and Ctrl-C):
 //!

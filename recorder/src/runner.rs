@@ -50,6 +50,17 @@ pub enum RunnerError {
         /// Index of the second.
         second: usize,
     },
+    /// A stage asks for a simulator ground-truth topic (`/sim/*`): stages see only what a
+    /// real robot has, so the same stage runs against hardware and its replay.
+    #[error(
+        "stage {stage} asks for {topic}: /sim/* topics are the simulator's truth, never a stage input (judge with `rodlog check task` instead)"
+    )]
+    TruthInput {
+        /// Stage name.
+        stage: String,
+        /// The `/sim/*` topic.
+        topic: String,
+    },
     /// A stage output could not be encoded.
     #[error("stage {stage}: cannot encode {type_name} on {topic} at {log_time}: {source}")]
     Encode {
@@ -237,6 +248,9 @@ impl Runner {
                 });
             }
             for topic in stage.inputs() {
+                if topic.starts_with(msgs::topics::SIM_PREFIX) {
+                    return Err(RunnerError::TruthInput { stage: name, topic });
+                }
                 let subs = subscribers.entry(topic).or_default();
                 if !subs.contains(&i) {
                     subs.push(i);
@@ -538,6 +552,46 @@ mod tests {
         assert_eq!(seen[7].2, "doubler");
         assert_eq!(r.stats()[0].errors, 1);
         Ok(())
+    }
+
+    /// A stage that would peek at the simulator's truth.
+    struct Peeker;
+    impl Stage for Peeker {
+        fn name(&self) -> &str {
+            "peeker"
+        }
+        fn inputs(&self) -> Vec<String> {
+            vec![
+                msgs::topics::JOINT_STATES.into(),
+                msgs::topics::SIM_CAMERA_MOUNT.into(),
+            ]
+        }
+        fn outputs(&self) -> Vec<(String, &'static str)> {
+            Vec::new()
+        }
+        fn latency(&self) -> RobotDuration {
+            RobotDuration::ZERO
+        }
+        fn on_message(
+            &mut self,
+            _log_time: RobotTime,
+            _topic: &str,
+            _msg: &Msg,
+        ) -> Result<Vec<(String, Msg)>, StageError> {
+            Ok(Vec::new())
+        }
+    }
+
+    #[test]
+    fn a_stage_asking_for_sim_truth_is_refused() {
+        let err = Runner::new(vec![Box::new(Doubler), Box::new(Peeker)]).err();
+        assert!(
+            matches!(&err, Some(RunnerError::TruthInput { stage, topic })
+                if stage == "peeker" && topic == msgs::topics::SIM_CAMERA_MOUNT),
+            "{err:?}"
+        );
+        let text = err.map(|e| e.to_string()).unwrap_or_default();
+        assert!(text.contains("/sim/camera_mount"), "{text}");
     }
 
     #[test]

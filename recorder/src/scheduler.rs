@@ -433,20 +433,20 @@ impl SinkFanout {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scenario::Params;
     use crate::sink::MemorySink;
     use crate::stages::{ArmExerciser, JointLimitMonitor};
     use crate::test_world::{TestWorld, TestWorldConfig};
+    use scenario::{Params, Reader};
 
     fn run(
         split_ms: &[u64],
     ) -> Result<(Vec<crate::sink::StoredMessage>, u64), Box<dyn std::error::Error>> {
         let p = Params::new();
         let runner = Runner::new(vec![
-            Box::new(ArmExerciser::from_params(&p)?),
-            Box::new(JointLimitMonitor::from_params(&p)?),
+            Box::new(ArmExerciser::from_params(&mut Reader::new(&p))?),
+            Box::new(JointLimitMonitor::from_params(&mut Reader::new(&p))?),
         ])?;
-        let world = TestWorld::new(TestWorldConfig::from_params(3, &p)?);
+        let world = TestWorld::new(TestWorldConfig::from_params(3, &mut Reader::new(&p))?);
         let mut sched = Scheduler::new(world, runner);
         let mem = MemorySink::new();
         let mut fan = SinkFanout::new(vec![Box::new(mem.clone())]);

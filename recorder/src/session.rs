@@ -2,7 +2,7 @@
 //! possible, or paced by the wall clock through [`crate::live`]), and `finish()` on every
 //! exit path.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use msgs::drivers::World;
 use msgs::{RobotTime, Stage};
@@ -10,12 +10,8 @@ use msgs::{RobotTime, Stage};
 use crate::live::{LiveError, LiveOptions, run_lockstep};
 use crate::mcap_writer::{McapSink, MetadataRecord, SinkOptions, WriteError};
 use crate::runner::{Popped, Runner, RunnerError, StageStats};
-use crate::scenario::Scenario;
 use crate::scheduler::{FLUSH_PERIOD, Scheduler, SchedulerError, SchedulerStats, SinkFanout};
 use crate::sink::{McapStreamSink, Sink, SinkError};
-
-/// Name of the scenario attachment.
-pub const SCENARIO_ATTACHMENT: &str = "scenario.toml";
 
 /// Errors of a recording session.
 #[derive(Debug, thiserror::Error)]
@@ -115,31 +111,6 @@ pub struct RecordingHeader {
     pub metadata: Vec<MetadataRecord>,
     /// Attachments `(name, media type, bytes)`, at log time 0.
     pub attachments: Vec<(String, String, Vec<u8>)>,
-}
-
-impl RecordingHeader {
-    /// The standard header of a scenario recording: `scenario` (from the scenario),
-    /// `build` (rodlog version, mcap library) plus the caller's `robot_info`, and the scenario
-    /// file as an attachment.
-    pub fn for_scenario(scenario: &Scenario, robot_info: MetadataRecord) -> Self {
-        let mut scenario_rec = MetadataRecord::new(crate::scenario::SCENARIO_RECORD);
-        scenario_rec.entries = scenario.metadata_entries();
-        let build = MetadataRecord::new("build")
-            .with("rodlog_version", env!("CARGO_PKG_VERSION"))
-            .with("library", crate::mcap_writer::library_string())
-            .with(
-                "git_commit",
-                option_env!("RODLOG_GIT_COMMIT").unwrap_or("unknown"),
-            );
-        Self {
-            metadata: vec![robot_info, scenario_rec, build],
-            attachments: vec![(
-                SCENARIO_ATTACHMENT.to_owned(),
-                "application/toml".to_owned(),
-                scenario.source_text.clone().into_bytes(),
-            )],
-        }
-    }
 }
 
 /// Records `duration` of robot time of `world` through `stages` into `options.out`.
@@ -271,19 +242,14 @@ pub fn write_header(fanout: &mut SinkFanout, header: &RecordingHeader) -> Result
     Ok(())
 }
 
-/// The default output name of a scenario recording: `NAME.mcap` in `dir`.
-pub fn default_output(dir: &Path, scenario: &Scenario) -> PathBuf {
-    dir.join(format!("{}.mcap", scenario.name))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scenario::Params;
     use crate::stages::ArmExerciser;
     use crate::test_world::{TestWorld, TestWorldConfig};
     use msgs::drivers::{DriverError, DriverOutput};
     use msgs::{Msg, RobotDuration};
+    use scenario::{Params, Reader};
 
     /// The test world, failing once stepped past `fail_at`.
     struct Failing {
@@ -314,7 +280,7 @@ mod tests {
         let out = dir.path().join("fail.mcap");
         let p = Params::new();
         let world = Failing {
-            inner: TestWorld::new(TestWorldConfig::from_params(1, &p)?),
+            inner: TestWorld::new(TestWorldConfig::from_params(1, &mut Reader::new(&p))?),
             fail_at: RobotTime::from_millis(1500),
         };
         let options = RecordOptions {
@@ -327,7 +293,7 @@ mod tests {
         let header = RecordingHeader::default();
         let r = record(
             world,
-            vec![Box::new(ArmExerciser::from_params(&p)?)],
+            vec![Box::new(ArmExerciser::from_params(&mut Reader::new(&p))?)],
             &header,
             RobotDuration::from_secs(5),
             &options,

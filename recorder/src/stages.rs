@@ -20,7 +20,7 @@ use msgs::trajectory_msgs::{JointTrajectory, JointTrajectoryPoint};
 use msgs::{Msg, RobotDuration, RobotTime, Stage, StageError};
 
 use crate::runner::rosout;
-use crate::scenario::{Params, ScenarioError};
+use scenario::{ParamError, Reader};
 
 /// Name of [`ArmExerciser`].
 pub const ARM_EXERCISER: &str = "arm_exerciser";
@@ -28,25 +28,6 @@ pub const ARM_EXERCISER: &str = "arm_exerciser";
 pub const JOINT_LIMIT_MONITOR: &str = "joint_limit_monitor";
 /// Centre of the exerciser's goals (the test world's home pose), rad.
 pub const EXERCISE_CENTER_RAD: [f64; 6] = [0.0, 0.3, 1.2, 0.0, 1.57, 0.0];
-
-fn config_err(stage: &str, e: &ScenarioError) -> StageError {
-    StageError::Config {
-        stage: stage.to_owned(),
-        key: match e {
-            ScenarioError::BadParam { key, .. } => key.clone(),
-            _ => String::new(),
-        },
-        reason: e.to_string(),
-    }
-}
-
-fn millis(stage: &str, key: &str, ms: f64) -> Result<RobotDuration, StageError> {
-    RobotDuration::from_secs_f64(ms * 1e-3).map_err(|e| StageError::Config {
-        stage: stage.to_owned(),
-        key: key.to_owned(),
-        reason: e.to_string(),
-    })
-}
 
 /// Commands a fixed goal sequence on `/clock`. See the module docs.
 #[derive(Debug, Clone)]
@@ -59,33 +40,36 @@ pub struct ArmExerciser {
 }
 
 impl ArmExerciser {
-    /// From `arm_exerciser.{period_s (2.0), start_s (0.5), amplitude_rad (0.6),
-    /// latency_ms (10)}`.
+    /// From `arm_exerciser.{period_s, start_s, amplitude_rad, latency_ms}`.
     ///
     /// # Errors
-    /// [`StageError::Config`] for invalid values.
-    pub fn from_params(p: &Params) -> Result<Self, StageError> {
-        let e = |e: ScenarioError| config_err(ARM_EXERCISER, &e);
-        let period_s = p.f64_or("arm_exerciser.period_s", 2.0).map_err(e)?;
-        let start_s = p.f64_or("arm_exerciser.start_s", 0.5).map_err(e)?;
-        let amplitude_rad = p.f64_or("arm_exerciser.amplitude_rad", 0.6).map_err(e)?;
-        let latency_ms = p.f64_or("arm_exerciser.latency_ms", 10.0).map_err(e)?;
+    /// [`ParamError::Value`] for invalid values.
+    pub fn from_params(r: &mut Reader<'_>) -> Result<Self, ParamError> {
+        let mut s = r.section(ARM_EXERCISER);
+        let period_s = s.f64("period_s", 2.0, "s", "time between goals (>= 0.1)")?;
+        let next_goal_at = s.time_s("start_s", RobotTime::from_millis(500), "first goal")?;
+        let amplitude_rad = s.f64(
+            "amplitude_rad",
+            0.6,
+            "rad",
+            "goal amplitude around the home pose",
+        )?;
+        let latency = s.millis(
+            "latency_ms",
+            RobotDuration::from_millis(10),
+            "stage latency",
+        )?;
         let period = RobotDuration::from_secs_f64(period_s)
             .ok()
             .filter(|d| *d >= RobotDuration::from_millis(100))
-            .ok_or_else(|| StageError::Config {
-                stage: ARM_EXERCISER.to_owned(),
+            .ok_or_else(|| ParamError::Value {
                 key: "arm_exerciser.period_s".to_owned(),
-                reason: format!("{period_s} s: must be >= 0.1"),
+                value: period_s.to_string(),
+                reason: "must be >= 0.1".to_owned(),
             })?;
-        let next_goal_at = RobotTime::from_secs_f64(start_s).map_err(|err| StageError::Config {
-            stage: ARM_EXERCISER.to_owned(),
-            key: "arm_exerciser.start_s".to_owned(),
-            reason: err.to_string(),
-        })?;
         Ok(Self {
             period,
-            latency: millis(ARM_EXERCISER, "arm_exerciser.latency_ms", latency_ms)?,
+            latency,
             amplitude_rad,
             next_goal_at,
             goals_sent: 0,
@@ -174,30 +158,29 @@ pub struct JointLimitMonitor {
 }
 
 impl JointLimitMonitor {
-    /// From `joint_limit_monitor.{soft_limit_rad (2.0), latency_ms (2)}`.
+    /// From `joint_limit_monitor.{soft_limit_rad, latency_ms}`.
     ///
     /// # Errors
-    /// [`StageError::Config`] for invalid values.
-    pub fn from_params(p: &Params) -> Result<Self, StageError> {
-        let e = |e: ScenarioError| config_err(JOINT_LIMIT_MONITOR, &e);
-        let soft_limit_rad = p
-            .f64_or("joint_limit_monitor.soft_limit_rad", 2.0)
-            .map_err(e)?;
-        let latency_ms = p.f64_or("joint_limit_monitor.latency_ms", 2.0).map_err(e)?;
+    /// [`ParamError::Value`] for invalid values.
+    pub fn from_params(r: &mut Reader<'_>) -> Result<Self, ParamError> {
+        let mut s = r.section(JOINT_LIMIT_MONITOR);
+        let soft_limit_rad = s.f64(
+            "soft_limit_rad",
+            2.0,
+            "rad",
+            "warn beyond +-this joint angle (> 0)",
+        )?;
+        let latency = s.millis("latency_ms", RobotDuration::from_millis(2), "stage latency")?;
         if soft_limit_rad <= 0.0 {
-            return Err(StageError::Config {
-                stage: JOINT_LIMIT_MONITOR.to_owned(),
+            return Err(ParamError::Value {
                 key: "joint_limit_monitor.soft_limit_rad".to_owned(),
-                reason: format!("{soft_limit_rad}: must be > 0"),
+                value: soft_limit_rad.to_string(),
+                reason: "must be > 0".to_owned(),
             });
         }
         Ok(Self {
             soft_limit_rad,
-            latency: millis(
-                JOINT_LIMIT_MONITOR,
-                "joint_limit_monitor.latency_ms",
-                latency_ms,
-            )?,
+            latency,
             beyond: [false; 6],
         })
     }
@@ -293,8 +276,8 @@ mod tests {
     }
 
     #[test]
-    fn exerciser_sends_one_goal_per_period() -> Result<(), StageError> {
-        let mut s = ArmExerciser::from_params(&Params::new())?;
+    fn exerciser_sends_one_goal_per_period() -> Result<(), Box<dyn std::error::Error>> {
+        let mut s = ArmExerciser::from_params(&mut Reader::new(&scenario::Params::new()))?;
         let mut sent = 0;
         for k in 0..=50u64 {
             let t = RobotTime::from_millis(k * 100);
@@ -310,8 +293,8 @@ mod tests {
     }
 
     #[test]
-    fn monitor_logs_edges_only() -> Result<(), StageError> {
-        let mut m = JointLimitMonitor::from_params(&Params::new())?;
+    fn monitor_logs_edges_only() -> Result<(), Box<dyn std::error::Error>> {
+        let mut m = JointLimitMonitor::from_params(&mut Reader::new(&scenario::Params::new()))?;
         let js = |q: f64| {
             Msg::JointState(JointState {
                 name: vec![ARM_JOINT_NAMES[4].to_owned()],

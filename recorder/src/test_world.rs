@@ -21,7 +21,7 @@ use msgs::std_msgs::{Float64, Header};
 use msgs::trajectory_msgs::JointTrajectory;
 use msgs::{Msg, RobotDuration, RobotTime};
 
-use crate::scenario::{Params, ScenarioError};
+use scenario::{ParamError, Reader};
 
 /// Producer of the arm's joint states.
 pub const ARM_DRIVER: &str = "arm_driver";
@@ -98,47 +98,43 @@ pub struct TestWorldConfig {
 }
 
 impl TestWorldConfig {
-    /// Reads `test_world.*` from `params`, with `seed`.
+    /// Reads `test_world.*` through `r`, with `seed`.
     ///
     /// # Errors
-    /// [`ScenarioError::BadParam`] for wrong types or out-of-range values.
-    pub fn from_params(seed: u64, params: &Params) -> Result<Self, ScenarioError> {
-        let c = Self {
+    /// [`ParamError::Value`] for wrong types or out-of-range values.
+    pub fn from_params(seed: u64, r: &mut Reader<'_>) -> Result<Self, ParamError> {
+        let mut s = r.section("test_world");
+        Ok(Self {
             seed,
-            joint_rate_hz: params.f64_or("test_world.joint_rate_hz", 50.0)?,
-            encoder_noise_rad: params.f64_or("test_world.encoder_noise_rad", 1e-4)?,
-            speed_scale: params.f64_or("test_world.speed_scale", 0.25)?,
-            lift_m: params.f64_or("test_world.lift_m", 0.8)?,
-            wind_mean_mps: params.f64_or("test_world.wind_mean_mps", 1.5)?,
-            wind_sigma_mps: params.f64_or("test_world.wind_sigma_mps", 0.6)?,
-        };
-        let bad = |key: &str, v: f64, reason: &str| ScenarioError::BadParam {
-            key: key.to_owned(),
-            value: v.to_string(),
-            reason: reason.to_owned(),
-        };
-        if !(c.joint_rate_hz > 0.0 && c.joint_rate_hz <= 1000.0) {
-            return Err(bad(
-                "test_world.joint_rate_hz",
-                c.joint_rate_hz,
-                "must be in (0, 1000]",
-            ));
-        }
-        if !(c.speed_scale > 0.0 && c.speed_scale <= 1.0) {
-            return Err(bad(
-                "test_world.speed_scale",
-                c.speed_scale,
-                "must be in (0, 1]",
-            ));
-        }
-        if c.encoder_noise_rad < 0.0 || c.wind_sigma_mps < 0.0 {
-            return Err(bad(
-                "test_world noise",
-                c.encoder_noise_rad.min(c.wind_sigma_mps),
-                "must be >= 0",
-            ));
-        }
-        Ok(c)
+            joint_rate_hz: s.f64_in(
+                "joint_rate_hz",
+                50.0,
+                1e-3..=1000.0,
+                "Hz",
+                "joint-state rate",
+            )?,
+            encoder_noise_rad: s.non_negative(
+                "encoder_noise_rad",
+                1e-4,
+                "rad",
+                "encoder noise, 1-sigma",
+            )?,
+            speed_scale: s.f64_in(
+                "speed_scale",
+                0.25,
+                1e-3..=1.0,
+                "",
+                "fraction of the arm's maximum speeds",
+            )?,
+            lift_m: s.f64("lift_m", 0.8, "m", "lift height")?,
+            wind_mean_mps: s.f64("wind_mean_mps", 1.5, "m/s", "mean wind")?,
+            wind_sigma_mps: s.non_negative(
+                "wind_sigma_mps",
+                0.6,
+                "m/s",
+                "wind fluctuation, 1-sigma",
+            )?,
+        })
     }
 }
 
@@ -395,10 +391,10 @@ mod tests {
     use msgs::builtin_interfaces::Duration;
     use msgs::trajectory_msgs::JointTrajectoryPoint;
 
-    fn world(seed: u64) -> Result<TestWorld, ScenarioError> {
+    fn world(seed: u64) -> Result<TestWorld, ParamError> {
         Ok(TestWorld::new(TestWorldConfig::from_params(
             seed,
-            &Params::new(),
+            &mut Reader::new(&scenario::Params::new()),
         )?))
     }
 

@@ -62,6 +62,12 @@ pub struct ReplayOptions {
     pub end_s: Option<f64>,
     /// Only these topics are compared and written (stages still get every input).
     pub topics: Option<BTreeSet<String>>,
+    /// The producers that were stages when the file was recorded (its `pipeline` record, or
+    /// every producer that is not one of its world's drivers). A channel of such a producer
+    /// that the current pipeline lacks is an *orphan output*: it is neither fed as an input
+    /// (no stage of this version produces it) nor compared, and it is reported. `None`:
+    /// every channel of a producer the pipeline lacks is an input.
+    pub recorded_stages: Option<BTreeSet<String>>,
 }
 
 /// What a replay did.
@@ -87,6 +93,9 @@ pub struct ReplayReport {
     pub comparison: Comparison,
     /// Recovery note when the file was truncated (crashed recording).
     pub truncated: Option<String>,
+    /// Outputs of recorded stages the current pipeline lacks: `(topic, producer)` and the
+    /// number of messages in the window ([`ReplayOptions::recorded_stages`]).
+    pub orphan_outputs: BTreeMap<(String, String), u64>,
 }
 
 impl ReplayReport {
@@ -246,13 +255,21 @@ pub fn replay<R: Read + Seek>(
 
     // Channel classification.
     let mut channels: BTreeMap<u16, (Arc<Channel>, bool, bool)> = BTreeMap::new();
+    let mut orphans: BTreeMap<u16, (String, String)> = BTreeMap::new();
     for (id, info) in reader.channels() {
-        let output = info.producer().is_some_and(|p| runner.is_stage(p));
+        let producer = info.producer().unwrap_or_default();
+        let output = runner.is_stage(producer);
         if output {
-            report.output_channels.push((
-                info.topic.clone(),
-                info.producer().unwrap_or_default().to_owned(),
-            ));
+            report
+                .output_channels
+                .push((info.topic.clone(), producer.to_owned()));
+        } else if options
+            .recorded_stages
+            .as_ref()
+            .is_some_and(|stages| stages.contains(producer))
+        {
+            orphans.insert(*id, (info.topic.clone(), producer.to_owned()));
+            continue;
         }
         channels.insert(*id, (channel_of(info), output, is_latched(info)));
     }
@@ -302,6 +319,10 @@ pub fn replay<R: Read + Seek>(
     let filter = ReadFilter::all().with_time_range(Some(start_ns), Some(end_ns.saturating_add(1)));
     for m in reader.messages(&filter) {
         let m = m?;
+        if let Some(key) = orphans.get(&m.channel.id) {
+            *feeder.report.orphan_outputs.entry(key.clone()).or_default() += 1;
+            continue;
+        }
         let Some((ch, output, _)) = channels.get(&m.channel.id) else {
             continue;
         };
@@ -450,7 +471,7 @@ mod tests {
         let options = ReplayOptions {
             start_s: Some(5.0),
             end_s: Some(8.0),
-            topics: None,
+            ..ReplayOptions::default()
         };
         let report = replay(
             &mut reader,
@@ -492,7 +513,7 @@ mod tests {
         let bad = ReplayOptions {
             start_s: Some(8.0),
             end_s: Some(2.0),
-            topics: None,
+            ..ReplayOptions::default()
         };
         let mut reader =
             McapReader::from_reader(Cursor::new(file()?), crate::ReadOptions::default())?;
@@ -500,6 +521,40 @@ mod tests {
             replay(&mut reader, vec![], &bad, None),
             Err(ReplayError::Window { .. })
         ));
+        Ok(())
+    }
+
+    #[test]
+    fn outputs_of_a_recorded_stage_the_pipeline_lacks_are_reported_not_fed()
+    -> Result<(), Box<dyn std::error::Error>> {
+        // `description_publisher` was a stage when the file was recorded; this pipeline has
+        // only `echo`, so its /robot_description is an orphan output, not an input.
+        let mut reader =
+            McapReader::from_reader(Cursor::new(file()?), crate::ReadOptions::default())?;
+        let mem = MemorySink::new();
+        let mut fan = SinkFanout::new(vec![Box::new(mem.clone())]);
+        let options = ReplayOptions {
+            recorded_stages: Some(["description_publisher".to_owned()].into()),
+            ..ReplayOptions::default()
+        };
+        let report = replay(
+            &mut reader,
+            vec![Box::new(Echo { have: false })],
+            &options,
+            Some(&mut fan),
+        )?;
+        fan.finish()?;
+        assert_eq!(
+            report.orphan_outputs.get(&(
+                "/robot_description".to_owned(),
+                "description_publisher".to_owned()
+            )),
+            Some(&1)
+        );
+        assert_eq!(report.inputs_fed, 10);
+        assert_eq!(texts(&mem), vec!["have=false"; 10]);
+        let text = crate::whatif::summary(&report, &[]);
+        assert!(text.contains("NOT CHECKED"), "{text}");
         Ok(())
     }
 }

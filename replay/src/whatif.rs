@@ -1,7 +1,7 @@
 //! What-if: replay with other parameters, write the recorded inputs beside the new outputs,
 //! and say what changed.
 //!
-//! A what-if is **open-loop** (DESIGN.md section 2): the recorded sensor data did not see the
+//! A what-if is **open-loop**: the recorded sensor data did not see the
 //! new commands, so every output after the first divergent *command* (a stage output on a
 //! command topic, [`recorder::scheduler::COMMAND_TOPICS`]) only shows what the stages would
 //! have said, not what the robot would have done. The output file carries a `whatif`
@@ -101,6 +101,12 @@ pub fn summary(report: &ReplayReport, changed_parameters: &[String]) -> String {
             ch.regenerated,
             ch.identical,
             ch.changed()
+        );
+    }
+    for ((topic, producer), n) in &report.orphan_outputs {
+        let _ = writeln!(
+            s,
+            "  {topic:<28} {producer:<22} recorded {n:>6}  NOT CHECKED: this pipeline has no stage {producer}"
         );
     }
     match c.first_divergence() {

@@ -51,6 +51,25 @@ impl Default for RobotStateConfig {
     }
 }
 
+impl RobotStateConfig {
+    /// Reads `robot_state.{latency_ms, publish_robot_description}` through `r`.
+    ///
+    /// # Errors
+    /// [`scenario::ParamError::Value`] for a wrong type or an out-of-range value.
+    pub fn from_params(r: &mut scenario::Reader<'_>) -> Result<Self, scenario::ParamError> {
+        let d = Self::default();
+        let mut s = r.section("robot_state");
+        Ok(Self {
+            latency: s.millis("latency_ms", d.latency, "stage latency")?,
+            publish_robot_description: s.bool(
+                "publish_robot_description",
+                d.publish_robot_description,
+                "publish /robot_description (the URDF) on the first input",
+            )?,
+        })
+    }
+}
+
 /// The `robot_state` stage (see the module docs).
 #[derive(Debug, Clone)]
 pub struct RobotStateStage {

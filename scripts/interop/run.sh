@@ -11,6 +11,6 @@ if [ ! -x "$RODLOG_REF_VENV/bin/python" ]; then
   echo "interop: no Python venv at $RODLOG_REF_VENV (create it with scripts/venv.sh)" >&2
   exit 1
 fi
-export RODLOG_INTEROP_REQUIRED=1
+export RODLOG_NO_SKIP=1
 cd "$root"
 cargo test -p rodlog --test interop -- --nocapture

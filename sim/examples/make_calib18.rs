@@ -8,7 +8,7 @@
 //! face normal (tilts 8-22 deg at azimuths stepping by 100 deg, so consecutive views turn
 //! about axes spread around the normal), distances 0.38-0.52 m, and a roll about the optical axis
 //! alternating over -22..+22 deg (rotations about the normal). Each camera pose becomes a tool0 pose through the default
-//! mount (`sim::scenario::DEFAULT_MOUNT_*`), then joint goals by the robot crate's
+//! mount (`sim::config::DEFAULT_MOUNT_*`), then joint goals by the robot crate's
 //! closed-form IK (nearest to the previous view). Script timing: lift to 0.4 m at 0.5 s; each
 //! move is followed by a capture once the arm has settled (minimum move time + 0.6 s,
 //! rounded up to 0.1 s), and the next move starts 1.2 s after the capture (the structured-
@@ -18,9 +18,9 @@ use std::fmt::Write as _;
 
 use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
 use robot::{ArmIk, RobotModel};
+use sim::config::{DEFAULT_HOME_RAD, DEFAULT_MOUNT_RPY_DEG, DEFAULT_MOUNT_XYZ_M};
 use sim::motion::min_move_time_s;
 use sim::render::world_from_camera_looking_at;
-use sim::scenario::{DEFAULT_HOME_RAD, DEFAULT_MOUNT_RPY_DEG, DEFAULT_MOUNT_XYZ_M};
 use sim::scene::SubstationBuilder;
 use sim::world::mount_from_config;
 

@@ -4,6 +4,10 @@
 //! `cargo run -p sim --example render_views -- [OUT_DIR] [SCALE]` (default
 //! `target/render_views`, scale 1.0 = 1280x1024).
 
+// Wall-clock timings and hashed sets of a test, bench or example: not a stage, so the
+// crate's determinism lints do not apply here.
+#![allow(clippy::disallowed_methods, clippy::disallowed_types)]
+
 use std::path::PathBuf;
 use std::time::Instant;
 

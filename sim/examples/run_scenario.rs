@@ -4,13 +4,17 @@
 //! `cargo run --release -p sim --example run_scenario -- NAME|FILE [key=value ...] [--png DIR]`
 //! (`--png`: writes every wrist colour image as `DIR/wrist_NN.png`).
 
+// Wall-clock timings and hashed sets of a test, bench or example: not a stage, so the
+// crate's determinism lints do not apply here.
+#![allow(clippy::disallowed_methods, clippy::disallowed_types)]
+
 #[path = "../tests/common/mod.rs"]
 mod common;
 
 use std::collections::BTreeMap;
 
 use msgs::RobotTime;
-use sim::Scenario;
+use scenario::Scenario;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -23,18 +27,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .first()
         .cloned()
         .unwrap_or_else(|| "calib-18".to_owned());
-    let overrides: Vec<(String, String)> = args
-        .iter()
-        .skip(1)
-        .filter_map(|a| a.split_once('=').map(|(k, v)| (k.to_owned(), v.to_owned())))
-        .collect();
-    let mut s = Scenario::load(&name)?;
-    let foreign = s.apply_overrides(&overrides)?;
-    if !foreign.is_empty() {
-        eprintln!("ignored (not simulator keys): {foreign:?}");
+    let mut s = Scenario::find(&name)?;
+    for set in args.iter().skip(1).filter(|a| a.contains('=')) {
+        s.set_from_arg(set)?;
     }
     let wall = std::time::Instant::now();
-    let (_, out) = common::run(&s, RobotTime::from_secs_f64(s.duration_s)?)?;
+    let (_, out) = common::run(&s, RobotTime::ZERO + s.duration)?;
     let secs = wall.elapsed().as_secs_f64();
     let mut per_topic: BTreeMap<(&str, &str), usize> = BTreeMap::new();
     for o in &out {
@@ -68,7 +66,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "{}: {} messages over {} s of robot time in {secs:.2} s wall",
         s.name,
         out.len(),
-        s.duration_s
+        s.duration.as_secs_f64()
     );
     Ok(())
 }

@@ -11,8 +11,8 @@ use msgs::RobotTime;
 use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
 
 use crate::SimError;
+use crate::config::BumpConfig;
 use crate::rng::{self, streams};
-use crate::scenario::BumpConfig;
 
 /// Smallest seeded rotation (deg).
 pub const BUMP_ROT_MIN_DEG: f64 = 1.0;
@@ -49,13 +49,12 @@ impl Bump {
     /// Resolves `config` with the seed and the scenario duration.
     ///
     /// # Errors
-    /// [`SimError::ScenarioField`] if the time does not fit the robot clock.
+    /// [`SimError::Config`] if the time does not fit the robot clock.
     pub fn resolve(config: &BumpConfig, seed: u64, duration_s: f64) -> Result<Self, SimError> {
         let time_s = config
             .time_s
             .unwrap_or_else(|| duration_s * rng::uniform_in(seed, streams::BUMP, 0, 0.2, 0.8));
-        let time = RobotTime::from_secs_f64(time_s).map_err(|e| SimError::ScenarioField {
-            origin: "bump".to_owned(),
+        let time = RobotTime::from_secs_f64(time_s).map_err(|e| SimError::Config {
             key: "bump.time_s".to_owned(),
             reason: e.to_string(),
         })?;

@@ -36,11 +36,11 @@ use msgs::{RobotDuration, RobotTime};
 use nalgebra::Isometry3;
 
 use crate::SimError;
+use crate::config::{CameraConfig, DepthEncoding, PanoramicConfig};
 use crate::render::{
     CameraIntrinsics, LightConditions, RayTable, RgbdFrame, SensorParams, render_rgbd_with_rays,
 };
 use crate::rng::{self, streams};
-use crate::scenario::{CameraConfig, DepthEncoding, PanoramicConfig};
 use crate::scene::Scene;
 
 /// Producer of the wrist camera topics.
@@ -147,15 +147,14 @@ impl WristCamera {
     /// The camera of a scenario.
     ///
     /// # Errors
-    /// [`SimError::Render`] for an invalid scale; [`SimError::ScenarioField`] for durations.
+    /// [`SimError::Render`] for an invalid scale; [`SimError::Config`] for durations.
     pub fn new(config: &CameraConfig, seed: u64) -> Result<Self, SimError> {
         let intrinsics = CameraIntrinsics::wrist()
             .scaled(config.scale)
             .map_err(crate::render::RenderError::from)?;
         let rays = RayTable::new(&intrinsics)?;
         let dur = |key: &str, s: f64| {
-            RobotDuration::from_secs_f64(s).map_err(|e| SimError::ScenarioField {
-                origin: "camera".to_owned(),
+            RobotDuration::from_secs_f64(s).map_err(|e| SimError::Config {
                 key: key.to_owned(),
                 reason: e.to_string(),
             })
@@ -280,20 +279,19 @@ impl PanoramicCamera {
     /// The camera of a scenario.
     ///
     /// # Errors
-    /// [`SimError::Render`] for an invalid scale; [`SimError::ScenarioField`] for the period.
+    /// [`SimError::Render`] for an invalid scale; [`SimError::Config`] for the period.
     pub fn new(config: &PanoramicConfig, seed: u64) -> Result<Self, SimError> {
         let intrinsics = CameraIntrinsics::panoramic()
             .scaled(config.scale)
             .map_err(crate::render::RenderError::from)?;
         let rays = RayTable::new(&intrinsics)?;
         let period = if config.period_s > 0.0 {
-            Some(RobotDuration::from_secs_f64(config.period_s).map_err(|e| {
-                SimError::ScenarioField {
-                    origin: "panoramic".to_owned(),
+            Some(
+                RobotDuration::from_secs_f64(config.period_s).map_err(|e| SimError::Config {
                     key: "panoramic.period_s".to_owned(),
                     reason: e.to_string(),
-                }
-            })?)
+                })?,
+            )
         } else {
             None
         };

@@ -38,9 +38,9 @@ use msgs::sensor_msgs::Illuminance;
 use msgs::std_msgs::{Float64, Header};
 use nalgebra::Vector3;
 
+use crate::config::WindConfig;
 use crate::render::LightConditions;
 use crate::rng::{self, streams};
-use crate::scenario::WindConfig;
 
 /// Wind process step (s).
 pub const WIND_STEP_S: f64 = 0.01;

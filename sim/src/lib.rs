@@ -4,7 +4,7 @@
 //! |---|---|
 //! | [`scene`], [`render`] | the substation geometry and the RGB-D renderer |
 //! | [`world`] | [`SimWorld`]: the robot and its environment behind [`msgs::World`] |
-//! | [`scenario`] | scenario files ([`Scenario`]) and `--set` overrides |
+//! | [`config`] | [`SimConfig`], the simulator's keys of a scenario |
 //! | [`arm`], [`lift`], [`base`], [`clamp`], [`cameras`], [`environment`] | the simulated drivers (they implement the `msgs` driver traits) |
 //! | [`motion`] | speed/acceleration-limited axis tracking |
 //! | [`bump`], [`rod`], [`truth`] | camera-mount bump, grounding-rod tolerances and states, `/sim/...` truth |
@@ -27,58 +27,30 @@ pub mod base;
 pub mod bump;
 pub mod cameras;
 pub mod clamp;
+pub mod config;
 pub mod environment;
 pub mod lift;
 pub mod motion;
 pub mod render;
 pub mod rng;
 pub mod rod;
-pub mod scenario;
 pub mod scene;
 pub mod truth;
 pub mod world;
 
-pub use scenario::Scenario;
+pub use config::SimConfig;
 pub use world::SimWorld;
-
-use std::path::PathBuf;
 
 /// Errors of the simulator.
 #[derive(Debug, PartialEq, thiserror::Error)]
 pub enum SimError {
-    /// A scenario file could not be read.
-    #[error("cannot read scenario {path}: {reason}")]
-    ScenarioRead {
-        /// The path.
-        path: PathBuf,
-        /// OS error text.
-        reason: String,
-    },
-    /// A scenario is not valid TOML.
-    #[error("scenario {origin} is not valid TOML: {reason}")]
-    ScenarioToml {
-        /// File or origin.
-        origin: String,
-        /// Parser message.
-        reason: String,
-    },
-    /// A scenario key is missing, of the wrong type, unknown or out of range.
-    #[error("scenario {origin}: {key}: {reason}")]
-    ScenarioField {
-        /// File or origin.
-        origin: String,
+    /// A configuration value the simulator cannot use (a duration beyond the robot clock).
+    #[error("{key}: {reason}")]
+    Config {
         /// Dotted key.
         key: String,
         /// What is wrong.
         reason: String,
-    },
-    /// No scenario of that name.
-    #[error("no scenario {name:?}: tried {tried:?}")]
-    ScenarioNotFound {
-        /// The name given.
-        name: String,
-        /// Files tried.
-        tried: Vec<PathBuf>,
     },
     /// The substation could not be built.
     #[error(transparent)]

@@ -63,10 +63,10 @@ use crate::cameras::{
     CAMERA_DRIVER, PANORAMIC_DRIVER, PANORAMIC_LATENCY, PanoramicCamera, WristCamera,
 };
 use crate::clamp::{CLAMP_DRIVER, ClampSim, WIRE_CONTACT_TRAVEL_M};
+use crate::config::{RodStart, SimConfig};
 use crate::environment::{ANEMOMETER, EnvironmentSim, LUX_METER, Wind, light_at};
 use crate::lift::{LIFT_DRIVER, LiftSim};
 use crate::rod::{Rod, RodInputs, RodState};
-use crate::scenario::{RodStart, Scenario};
 use crate::scene::{Scene, SubstationBuilder, SubstationLayout};
 use crate::truth::{HANDLE_CENTER_IN_ROD_M, SIM, hanging_point, pose_stamped};
 
@@ -118,7 +118,7 @@ pub fn hung_rod_pose(layout: &SubstationLayout) -> Option<Isometry3<f64>> {
 /// The simulated world. See the module docs.
 #[derive(Debug)]
 pub struct SimWorld {
-    scenario: Scenario,
+    config: SimConfig,
     scene: Scene,
     layout: SubstationLayout,
     model: RobotModel,
@@ -142,11 +142,11 @@ pub struct SimWorld {
 }
 
 impl SimWorld {
-    /// Builds the world of a (resolved) scenario.
+    /// Builds the world of a configuration ([`SimConfig::from_params`]).
     ///
     /// # Errors
     /// Scene, camera or scenario errors.
-    pub fn from_scenario(scenario: &Scenario) -> Result<Self, SimError> {
+    pub fn new(scenario: &SimConfig) -> Result<Self, SimError> {
         let seed = scenario.seed;
         let (scene, layout) = SubstationBuilder::new(seed).build()?;
         let model = RobotModel::nominal();
@@ -208,14 +208,14 @@ impl SimWorld {
             started: false,
             last: RobotTime::ZERO,
             outbox: Vec::new(),
-            scenario: scenario.clone(),
+            config: scenario.clone(),
         })
     }
 
-    /// The scenario it runs.
+    /// The configuration it runs.
     #[must_use]
-    pub fn scenario(&self) -> &Scenario {
-        &self.scenario
+    pub fn config(&self) -> &SimConfig {
+        &self.config
     }
 
     /// The substation layout (truth).
@@ -449,7 +449,7 @@ impl SimWorld {
         if let Some(exposure) = self.wrist.exposure_due().filter(|e| *e <= now) {
             self.sync_scene()?;
             let pose = self.true_map_from_camera();
-            let light = light_at(self.scenario.hour, exposure);
+            let light = light_at(self.config.hour, exposure);
             self.wrist.expose(&self.scene, &pose, &light)?;
         }
         if let Some(c) = self.wrist.poll_capture(now)? {
@@ -565,7 +565,7 @@ impl SimWorld {
         if self.panoramic.due(now) {
             self.sync_scene()?;
             let pose = self.base.map_from_base() * self.model.base_from_panoramic_optical;
-            let light = light_at(self.scenario.hour, now);
+            let light = light_at(self.config.hour, now);
             let (img, info) = self.panoramic.capture(&self.scene, &pose, &light, now)?;
             let at = now + PANORAMIC_LATENCY;
             self.push(

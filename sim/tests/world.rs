@@ -1,15 +1,20 @@
 //! End-to-end tests of the simulated world: determinism across thread counts and step
 //! patterns, the camera-mount bump, capture timing and encodings, the calib-18 views.
 
+// Wall-clock timings and hashed sets of a test, bench or example: not a stage, so the
+// crate's determinism lints do not apply here.
+#![allow(clippy::disallowed_methods, clippy::disallowed_types)]
+
 mod common;
 
 use msgs::drivers::World;
 use msgs::sensor_msgs::{CameraInfo, Image, JointState};
 use msgs::topics;
 use msgs::{Msg, RobotTime};
+use scenario::{CommandKind, Scenario};
 use sim::render::{CameraIntrinsics, raycast_depth};
 use sim::world::mount_from_config;
-use sim::{Scenario, SimWorld};
+use sim::{SimConfig, SimWorld};
 
 type TestResult = Result<(), Box<dyn std::error::Error>>;
 
@@ -66,11 +71,11 @@ fn the_world_can_move_to_the_recorder_thread_and_every_committed_scenario_loads(
     fn assert_send<T: Send + 'static>() {}
     assert_send::<SimWorld>();
     for name in ["calib-18", "op-5min", "sim-smoke"] {
-        let s = Scenario::load(name)?;
+        let s = Scenario::find(name)?;
         assert_eq!(s.name, name);
-        SimWorld::from_scenario(&s)?;
+        SimWorld::new(&SimConfig::of_scenario(&s)?)?;
     }
-    let smoke = Scenario::load("sim-smoke")?;
+    let smoke = Scenario::find("sim-smoke")?;
     let short = Scenario::parse(SHORT, "short")?;
     assert_eq!(smoke.commands.len(), short.commands.len());
     Ok(())
@@ -79,7 +84,7 @@ fn the_world_can_move_to_the_recorder_thread_and_every_committed_scenario_loads(
 #[test]
 fn same_scenario_and_seed_give_identical_bytes_with_1_and_2_threads() -> TestResult {
     let s = Scenario::parse(SHORT, "short")?;
-    let end = RobotTime::from_secs_f64(s.duration_s)?;
+    let end = RobotTime::ZERO + s.duration;
     let go = || -> Result<_, String> {
         let (_, out) = common::run(&s, end).map_err(|e| e.to_string())?;
         common::bytes(&out).map_err(|e| e.to_string())
@@ -114,7 +119,7 @@ fn same_scenario_and_seed_give_identical_bytes_with_1_and_2_threads() -> TestRes
     );
     // Another seed changes the noise.
     let mut s2 = s.clone();
-    s2.apply_overrides(&[("seed".into(), "12".into())])?;
+    s2.seed = 12;
     let other = common::bytes(&common::run(&s2, end)?.1)?;
     assert!(other != one);
     Ok(())
@@ -124,8 +129,8 @@ fn same_scenario_and_seed_give_identical_bytes_with_1_and_2_threads() -> TestRes
 fn outputs_do_not_depend_on_how_the_caller_splits_its_steps() -> TestResult {
     let mut s = Scenario::parse(SHORT, "short")?;
     s.commands.clear();
-    let mut a = SimWorld::from_scenario(&s)?;
-    let mut b = SimWorld::from_scenario(&s)?;
+    let mut a = SimWorld::new(&SimConfig::of_scenario(&s)?)?;
+    let mut b = SimWorld::new(&SimConfig::of_scenario(&s)?)?;
     let end = RobotTime::from_millis(2_345);
     let big = a.step_until(end)?;
     let mut small = Vec::new();
@@ -146,7 +151,7 @@ fn outputs_do_not_depend_on_how_the_caller_splits_its_steps() -> TestResult {
 fn a_bump_moves_the_true_mount_by_the_configured_amount() -> TestResult {
     let text = "name = \"b\"\nseed = 5\nduration_s = 3.0\n[bump]\ntime_s = 1.5\nrot_deg = 2.5\ntrans_mm = 7.0\n[panoramic]\nperiod_s = 0\n[camera]\nscale = 0.05\n";
     let s = Scenario::parse(text, "b")?;
-    let mut w = SimWorld::from_scenario(&s)?;
+    let mut w = SimWorld::new(&SimConfig::of_scenario(&s)?)?;
     w.step_until(RobotTime::from_millis(1_400))?;
     let before = w.true_mount();
     let out = w.step_until(RobotTime::from_millis(1_600))?;
@@ -171,7 +176,7 @@ fn a_bump_moves_the_true_mount_by_the_configured_amount() -> TestResult {
         "name = \"b\"\nseed = 6\nduration_s = 10.0\n[bump]\n[panoramic]\nperiod_s = 0\n",
         "b",
     )?;
-    let b = SimWorld::from_scenario(&seeded)?
+    let b = SimWorld::new(&SimConfig::of_scenario(&seeded)?)?
         .bump()
         .copied()
         .ok_or("no bump")?;
@@ -183,7 +188,7 @@ fn a_bump_moves_the_true_mount_by_the_configured_amount() -> TestResult {
 fn capture_is_stamped_at_exposure_published_a_second_later_and_refuses_while_busy() -> TestResult {
     let text = "name = \"c\"\nseed = 2\nduration_s = 5.0\n[camera]\nscale = 0.1\ndepth_encoding = \"16UC1\"\n[panoramic]\nperiod_s = 0\n";
     let s = Scenario::parse(text, "c")?;
-    let mut w = SimWorld::from_scenario(&s)?;
+    let mut w = SimWorld::new(&SimConfig::of_scenario(&s)?)?;
     w.step_until(RobotTime::from_millis(1_000))?;
     w.command(
         RobotTime::from_millis(1_000),
@@ -250,32 +255,38 @@ fn capture_is_stamped_at_exposure_published_a_second_later_and_refuses_while_bus
 
 #[test]
 fn calib18_views_see_the_cabinet_at_working_distance_with_the_arm_settled() -> TestResult {
-    let mut s = Scenario::load("calib-18")?;
-    s.apply_overrides(&[
-        ("robot.perturbation".into(), "false".into()),
-        ("robot.encoder_noise".into(), "false".into()),
-        ("camera.scale".into(), "0.1".into()),
-    ])?;
+    let mut s = Scenario::find("calib-18")?;
+    for set in [
+        "robot.perturbation=false",
+        "robot.encoder_noise=false",
+        "camera.scale=0.1",
+    ] {
+        s.set_from_arg(set)?;
+    }
     // Nominal camera poses from the committed joint goals.
-    let world = SimWorld::from_scenario(&s)?;
+    let world = SimWorld::new(&SimConfig::of_scenario(&s)?)?;
     let model = world.model().clone();
-    let mount = mount_from_config(s.camera.mount_xyz_m, s.camera.mount_rpy_deg);
+    let c = world.config();
+    let mount = mount_from_config(c.camera.mount_xyz_m, c.camera.mount_rpy_deg);
     let lift = s
         .commands
         .iter()
-        .find(|c| c.kind == "lift")
+        .find(|c| c.kind == CommandKind::Lift)
         .and_then(|c| c.values.first().copied())
         .ok_or("no lift")?;
     let k = CameraIntrinsics::wrist();
     let goals: Vec<[f64; 6]> = s
         .commands
         .iter()
-        .filter(|c| c.kind == "joints")
+        .filter(|c| c.kind == CommandKind::Joints)
         .filter_map(|c| <[f64; 6]>::try_from(c.values.as_slice()).ok())
         .collect();
     assert_eq!(goals.len(), 18);
     assert_eq!(
-        s.commands.iter().filter(|c| c.kind == "capture").count(),
+        s.commands
+            .iter()
+            .filter(|c| c.kind == CommandKind::Capture)
+            .count(),
         18
     );
     let mut rotations = Vec::new();
@@ -311,7 +322,7 @@ fn calib18_views_see_the_cabinet_at_working_distance_with_the_arm_settled() -> T
 
     // Run it: every capture's exposure finds the arm on its goal, and the depth sees the
     // cabinet at 0.3-0.6 m.
-    let end = RobotTime::from_secs_f64(s.duration_s)?;
+    let end = RobotTime::ZERO + s.duration;
     let (_, out) = common::run(&s, end)?;
     let depths: Vec<&Image> = out
         .iter()
@@ -457,7 +468,7 @@ fn without_commands_nothing_moves_but_wind_sways_wire_and_platform() -> TestResu
     let windy = Scenario::parse(&format!("{base}[wind]\nmean_mps = 8.0\n"), "windy")?;
     let mut spans = Vec::new();
     for s in [&calm, &windy] {
-        let mut w = SimWorld::from_scenario(s)?;
+        let mut w = SimWorld::new(&SimConfig::of_scenario(s)?)?;
         let (mut wire, mut cam) = (Vec::new(), Vec::new());
         for k in 1..=200u64 {
             w.step_until(RobotTime::from_millis(100 * k))?;

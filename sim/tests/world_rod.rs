@@ -12,8 +12,9 @@ use msgs::trajectory_msgs::{JointTrajectory, JointTrajectoryPoint};
 use msgs::{RobotDuration, RobotTime, topics};
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use robot::ArmIk;
+use scenario::Scenario;
 use sim::rod::{RodState, rod_from_hook, rod_from_tool0_grasp};
-use sim::{Scenario, SimWorld};
+use sim::{SimConfig, SimWorld};
 
 type TestResult = Result<(), Box<dyn std::error::Error>>;
 
@@ -118,8 +119,8 @@ fn grasp_from_the_rack_hook_onto_the_wire_clamp_and_release() -> TestResult {
     let text = "name = \"rod\"\nseed = 1\nduration_s = 300.0\n[panoramic]\nperiod_s = 0\n[camera]\nscale = 0.05\n\
                 [robot]\nperturbation = false\nencoder_noise = false\nodometry_drift = false\n";
     let s = Scenario::parse(text, "rod")?;
-    let world = SimWorld::from_scenario(&s)?;
-    let q0 = s.robot.home_rad;
+    let world = SimWorld::new(&SimConfig::of_scenario(&s)?)?;
+    let q0 = world.config().robot.home_rad;
     let mut d = Driver {
         world,
         now: RobotTime::ZERO,

@@ -57,7 +57,7 @@ pub fn run(command: &CheckCommand) -> anyhow::Result<()> {
 }
 
 fn task(args: &TaskArgs) -> anyhow::Result<()> {
-    let v = crate::judge::judge(&args.recording)?;
+    let v = compose::judge::judge(&args.recording)?;
     if args.json {
         super::print_stdout(&serde_json::to_string(&v)?)?;
     } else {

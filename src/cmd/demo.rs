@@ -14,8 +14,6 @@ use msgs::topics::TASK_EVENT;
 use recorder::{ChunkCompression, RecordOptions, SinkOptions};
 use replay::{McapReader, ReadFilter};
 
-use super::record::{record_scenario, recording_header, scenario_dirs};
-
 /// Arguments of `rodlog demo`.
 #[derive(Debug, clap::Args)]
 pub struct DemoArgs {
@@ -38,23 +36,16 @@ pub struct DemoArgs {
 /// # Errors
 /// Scenario, simulation, recording and judging errors; a run that did not succeed.
 pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
-    let mut scenario = recorder::Scenario::find("demo", &scenario_dirs())?;
-    if let Some(seed) = args.seed {
-        scenario.seed = seed;
-    }
-    for s in &args.set {
-        scenario.params.set_from_arg(s)?;
-    }
+    let plan = super::record::plan("demo", args.seed, None, &args.set)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let mcap = args.out.join("demo.mcap");
     let rrd = args.out.join("demo.rrd");
     let mut extra: Vec<Box<dyn recorder::Sink>> = Vec::new();
     if !args.no_viz {
-        let header = recording_header(&scenario)?;
         extra.push(Box::new(super::view::VizSink::create(
             &rrd,
-            &header.metadata,
+            &plan.header()?.metadata,
         )?));
     }
     let options = RecordOptions {
@@ -65,12 +56,12 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         },
         realtime: false,
         threads: None,
-        stop: super::record::task_end(&scenario.params)?,
+        stop: plan.task_end(),
     };
     let wall = std::time::Instant::now();
-    let summary = record_scenario(&scenario, &options, extra)?;
+    let summary = compose::record(&plan, &options, extra)?;
     let wall_s = wall.elapsed().as_secs_f64();
-    let verdict = crate::judge::judge(&mcap)?;
+    let verdict = compose::judge::judge(&mcap)?;
 
     // The phases' ends from the task events.
     let mut reader = McapReader::open(&mcap)?;

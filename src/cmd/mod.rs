@@ -7,6 +7,7 @@ pub mod experiment;
 pub mod import;
 pub mod info;
 pub mod log;
+pub mod params;
 pub mod record;
 pub mod recording_views;
 pub mod replay;

@@ -12,11 +12,9 @@ use std::collections::BTreeSet;
 use std::path::PathBuf;
 
 use anyhow::{Context as _, bail};
-use recorder::scenario::{PARAM_PREFIX, Params, SCENARIO_RECORD};
 use recorder::{McapSink, McapStreamSink, MetadataRecord, Sink, SinkFanout, SinkOptions};
 use replay::{McapReader, ReplayOptions, whatif};
-
-use super::record::pipeline;
+use scenario::{PARAM_PREFIX, SCENARIO_RECORD};
 
 /// Arguments of `rodlog replay`.
 #[derive(Debug, clap::Args)]
@@ -47,40 +45,50 @@ pub struct ReplayArgs {
     pub topics: Vec<String>,
 }
 
+/// The parameters of a `--config` file: its `[parameters]` table if it has one (a scenario
+/// file), otherwise the whole file, flattened.
+fn parameter_file(path: &std::path::Path) -> anyhow::Result<scenario::Params> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let table: toml::Table = text
+        .parse()
+        .with_context(|| format!("{} is not valid TOML", path.display()))?;
+    Ok(match table.get("parameters") {
+        Some(toml::Value::Table(p)) => scenario::Params::from_table(p),
+        _ => scenario::Params::from_table(&table),
+    })
+}
+
 /// Runs `rodlog replay`.
 pub fn run(args: &ReplayArgs) -> anyhow::Result<()> {
+    let config = args
+        .config
+        .as_ref()
+        .map(|path| parameter_file(path))
+        .transpose()?;
+    let setup = compose::ReplaySetup::new(&args.rec, config.as_ref(), &args.set)?;
+    for m in &setup.migrated {
+        eprintln!("rodlog: note: {m}");
+    }
+    let unknown: Vec<String> = setup
+        .unknown_recorded()
+        .iter()
+        .map(ToString::to_string)
+        .collect();
+    for u in &unknown {
+        eprintln!("rodlog: warning: recorded {u}; replaying without it");
+    }
+    let changed_text = setup.changed_parameters();
+    let params = &setup.plan.scenario().params;
+    let stages = setup.plan.pipeline()?;
     let mut reader = McapReader::open(&args.rec)
         .with_context(|| format!("cannot read {}", args.rec.display()))?;
-    let recorded_scenario = reader.metadata_named(SCENARIO_RECORD).cloned();
-    let recorded_params = recorded_scenario
-        .as_ref()
-        .map(|m| Params::from_metadata(&m.entries))
-        .unwrap_or_default();
-    let mut params = recorded_params.clone();
-    if let Some(path) = &args.config {
-        params.merge(&Params::from_file(path)?);
-    }
-    for s in &args.set {
-        params.set_from_arg(s)?;
-    }
-    let changed = params.changed_keys(&recorded_params);
-    let changed_text: Vec<String> = changed
-        .iter()
-        .map(|k| match params.get(k) {
-            Some(v) => format!("{k}={v}"),
-            None => format!("{k} (removed)"),
-        })
-        .collect();
-    // The scenario's command list (for the `script` stage) comes from the attached file.
-    let commands = super::record::scenario_of_recording(&args.rec)
-        .map(|s| s.commands)
-        .unwrap_or_default();
-    let stages = pipeline(&params, &commands)?;
     let options = ReplayOptions {
         start_s: args.start,
         end_s: args.end,
         topics: (!args.topics.is_empty())
             .then(|| args.topics.iter().cloned().collect::<BTreeSet<_>>()),
+        recorded_stages: Some(setup.recorded_stages.clone()),
     };
 
     let mut fanout = match &args.out {
@@ -146,6 +154,23 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<()> {
         }
         if let Some(d) = report.comparison.first_divergence() {
             bail!("replay --check: {compared} outputs compared; first divergence: {d}");
+        }
+        if !report.orphan_outputs.is_empty() {
+            let names: Vec<String> = report
+                .orphan_outputs
+                .iter()
+                .map(|((topic, producer), n)| format!("{topic} from {producer} ({n})"))
+                .collect();
+            bail!(
+                "replay --check: the recording holds outputs of stages this pipeline does not have, so they cannot be checked: {}",
+                names.join(", ")
+            );
+        }
+        if !unknown.is_empty() {
+            bail!(
+                "replay --check: {compared} outputs identical, but the recording was made with parameters this version does not know: {}",
+                unknown.join("; ")
+            );
         }
         super::print_stdout(&format!(
             "check passed: {compared} outputs compared, all identical"

@@ -251,7 +251,7 @@ pub fn run(settings: &Settings) -> Result<()> {
 type ShecarOut = (Vec<ShecarScore>, f64, CameraModel, usize);
 
 fn shecar_scores(settings: &Settings, progress: &Progress) -> Result<ShecarOut> {
-    let dir = super::matchers::shecar_dir();
+    let dir = compose::data::shecar_dir();
     let dataset =
         crate::import::shecar::read(&dir).with_context(|| format!("reading {}", dir.display()))?;
     let scale = (SHECAR_SCALE * settings.image_scale).max(SHECAR_MIN_SCALE);

@@ -410,15 +410,6 @@ fn sim_pairs(settings: &Settings, n: usize, progress: &Progress) -> Result<Vec<I
     Ok(pairs)
 }
 
-/// The shecar sample folder: `RODLOG_SHECAR` or `../shared/data/shecar` beside the source
-/// tree.
-pub fn shecar_dir() -> PathBuf {
-    std::env::var_os("RODLOG_SHECAR").map_or_else(
-        || Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/shecar"),
-        PathBuf::from,
-    )
-}
-
 /// The shecar photos and camera at one scale, loaded lazily.
 struct Shecar {
     dataset: crate::import::Dataset,
@@ -430,7 +421,7 @@ struct Shecar {
 
 impl Shecar {
     fn open(settings: &Settings) -> Result<Self> {
-        let dir = shecar_dir();
+        let dir = compose::data::shecar_dir();
         let dataset = crate::import::shecar::read(&dir)
             .with_context(|| format!("reading shecar at {}", dir.display()))?;
         let scale = (SHECAR_SCALE * settings.image_scale).max(SHECAR_MIN_SCALE);

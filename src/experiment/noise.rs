@@ -158,8 +158,8 @@ pub fn render_trial(ctx: &SimContext, seed: u64, n_views: usize) -> Result<SimTr
     let u = |stream: u64, i: u64, lo: f64, hi: f64| sim::rng::uniform_in(seed, stream, i, lo, hi);
     let nrm = |stream: u64, i: u64| sim::rng::normal(seed, stream, i);
     let default_mount = sim::world::mount_from_config(
-        sim::scenario::DEFAULT_MOUNT_XYZ_M,
-        sim::scenario::DEFAULT_MOUNT_RPY_DEG,
+        sim::config::DEFAULT_MOUNT_XYZ_M,
+        sim::config::DEFAULT_MOUNT_RPY_DEG,
     );
     let axis = Vector3::new(
         nrm(STREAM_MOUNT, 0),

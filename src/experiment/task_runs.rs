@@ -10,7 +10,7 @@ use anyhow::{Context, Result};
 use recorder::{ChunkCompression, RecordOptions, SinkOptions};
 use serde::Serialize;
 
-use crate::judge::{Verdict, judge};
+use compose::judge::{Verdict, judge};
 
 /// One run's conditions.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -89,8 +89,10 @@ pub struct RunResult {
 pub fn run(spec: &RunSpec, dir: &Path, keep: bool) -> Result<RunResult> {
     let text = spec.scenario_toml();
     let origin = format!("{}-{}", spec.task, spec.seed);
-    let scenario = recorder::Scenario::parse(&text, &origin)
+    let scenario = scenario::Scenario::parse(&text, &origin)
         .with_context(|| format!("scenario of run {origin}"))?;
+    let plan =
+        compose::Plan::new(&scenario).with_context(|| format!("scenario of run {origin}"))?;
     let out = dir.join(format!(
         "{}-{}-{}.mcap",
         spec.condition.replace([' ', '/'], "_"),
@@ -105,10 +107,10 @@ pub fn run(spec: &RunSpec, dir: &Path, keep: bool) -> Result<RunResult> {
         },
         realtime: false,
         threads: Some(1),
-        stop: crate::cmd::record::task_end(&scenario.params)?,
+        stop: plan.task_end(),
     };
     let started = std::time::Instant::now();
-    crate::cmd::record::record_scenario(&scenario, &options, Vec::new())?;
+    compose::record(&plan, &options, Vec::new())?;
     let wall_s = started.elapsed().as_secs_f64();
     let verdict = judge(&out)?;
     let recording = if keep {

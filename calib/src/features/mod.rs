@@ -401,6 +401,9 @@ impl MatchResult {
 /// # Errors
 /// Those of the method's detector ([`OrbExtractor::new`],
 /// [`OrbExtractor::detect_and_describe`], [`sift::detect_and_describe`]).
+// The timings are the one impure output, for the `calib match` tool and the matcher
+// experiment; no stage calls this (stages go through `selfcal`).
+#[allow(clippy::disallowed_methods)]
 pub fn match_images(
     a: &GrayView<'_>,
     b: &GrayView<'_>,

@@ -160,6 +160,78 @@ impl Default for CalibrationStageConfig {
     }
 }
 
+impl CalibrationStageConfig {
+    /// Reads `calibration.*` through `r`. `scripted_captures` is the scenario's number of
+    /// `capture` commands: `calibration.captures` (captures after which the stage
+    /// self-calibrates; 0 = never, it then only publishes the camera edge) defaults to it when
+    /// it is at least [`MIN_VIEWS`], else to 0. The other keys default to [`Default`]'s.
+    ///
+    /// # Errors
+    /// [`scenario::ParamError::Value`] for a wrong type or an out-of-range value.
+    pub fn from_params(
+        r: &mut scenario::Reader<'_>,
+        scripted_captures: usize,
+    ) -> Result<Self, scenario::ParamError> {
+        let d = Self::default();
+        let default_captures = if scripted_captures >= MIN_VIEWS {
+            scripted_captures
+        } else {
+            0
+        };
+        let mut s = r.section("calibration");
+        let distribution = s.choice(
+            "orb_distribution",
+            d.orb_distribution.name(),
+            &[
+                KeypointDistribution::Quadtree.name(),
+                KeypointDistribution::RetainBest.name(),
+            ],
+            "ORB keypoint selection: the paper's quadtree, or OpenCV's retain-best",
+        )?;
+        Ok(Self {
+            latency: s.millis("latency_ms", d.latency, "stage latency")?,
+            captures_to_solve: s.count(
+                "captures",
+                default_captures,
+                0,
+                "captures after which the stage self-calibrates (0 = never; default the scenario's capture commands when >= 3)",
+            )?,
+            min_view_rotation_deg: s.non_negative(
+                "min_view_rotation_deg",
+                d.min_view_rotation_deg,
+                "deg",
+                "least rotation between two views used as a pair",
+            )?,
+            max_residual_rot_deg: s.non_negative(
+                "max_residual_rot_deg",
+                d.max_residual_rot_deg,
+                "deg",
+                "accept a calibration whose median rotation residual is at most this",
+            )?,
+            max_residual_trans_mm: s.non_negative(
+                "max_residual_trans_mm",
+                d.max_residual_trans_mm,
+                "mm",
+                "... and whose median translation residual is at most this",
+            )?,
+            depth_wait: s.millis(
+                "depth_wait_ms",
+                d.depth_wait,
+                "longest wait for the depth image of a colour image",
+            )?,
+            tf_wait: s.seconds("tf_wait_s", d.tf_wait, "longest wait for TF to reach an image stamp")?,
+            ignore_depth: s.bool("mono", d.ignore_depth, "ignore depth: monocular calibration")?,
+            seed: s.u64("seed", d.seed, "", "RANSAC seed")?,
+            orb_distribution: if distribution == KeypointDistribution::RetainBest.name() {
+                KeypointDistribution::RetainBest
+            } else {
+                KeypointDistribution::Quadtree
+            },
+            ..d
+        })
+    }
+}
+
 /// A colour image waiting for its depth or its TF.
 #[derive(Debug, Clone)]
 struct Pending {

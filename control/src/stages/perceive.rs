@@ -68,7 +68,8 @@ pub const AT_REST_RAD_S: f64 = 1e-3;
 pub struct PerceiveConfig {
     /// The robot model (nominal).
     pub model: RobotModel,
-    /// The site map's prior of the target conductor, in `map`.
+    /// The site map's prior of the target conductor, in `map`. Default
+    /// [`crate::tasks::site::SiteMap::default_bay`]'s.
     pub prior_in_map: WirePrior,
     /// Use the first panoramic frame at or after this time.
     pub panoramic_at: RobotTime,
@@ -100,13 +101,7 @@ impl Default for PerceiveConfig {
     fn default() -> Self {
         Self {
             model: RobotModel::nominal(),
-            // The middle phase at mid-span of the simulator's default bay: attachment 4.5 m,
-            // sag 0.8 m.
-            prior_in_map: WirePrior {
-                point: Point3::new(12.0, 0.0, 3.7),
-                direction: Vector3::x(),
-                half_length_m: 1.5,
-            },
+            prior_in_map: crate::tasks::site::SiteMap::default_bay().wire,
             panoramic_at: RobotTime::ZERO,
             panoramic_attempts: 5,
             look_at: RobotTime::ZERO,
@@ -120,6 +115,40 @@ impl Default for PerceiveConfig {
             thresholds: ConfidenceThresholds::default(),
             latency: RobotDuration::from_millis(5),
         }
+    }
+}
+
+impl PerceiveConfig {
+    /// Reads `perceive.*` through `r` (`panoramic_at_s`, `look_at_s`, `standoff_m`,
+    /// `captures`, `latency_ms`); other fields keep [`Default`]'s. The wire prior is the site
+    /// map's, never a scenario's.
+    ///
+    /// # Errors
+    /// [`scenario::ParamError::Value`] for a wrong type or an out-of-range value.
+    pub fn from_params(r: &mut scenario::Reader<'_>) -> Result<Self, scenario::ParamError> {
+        let d = Self::default();
+        let mut s = r.section("perceive");
+        Ok(Self {
+            panoramic_at: s.time_s(
+                "panoramic_at_s",
+                RobotTime::ZERO,
+                "use the first panoramic frame from this time",
+            )?,
+            look_at: s.time_s(
+                "look_at_s",
+                RobotTime::ZERO,
+                "plan the wrist look motion from this time",
+            )?,
+            standoff_m: s.f64(
+                "standoff_m",
+                d.standoff_m,
+                "m",
+                "wrist camera standoff from the wire",
+            )?,
+            captures: s.count("captures", d.captures, 1, "wrist captures fused")?,
+            latency: s.millis("latency_ms", d.latency, "stage latency")?,
+            ..d
+        })
     }
 }
 

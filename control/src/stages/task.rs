@@ -285,6 +285,95 @@ impl Default for TaskConfig {
     }
 }
 
+impl TaskConfig {
+    /// Reads `task.*` through `r` for a task of `kind` (`start_s`, `self_maintenance`,
+    /// `standoff_m`, `wire_captures`, `handle_captures`, `approach_m`, `attempts`,
+    /// `clamp_torque_nm`, `operation_timeout_s`, `wind_sigmas`, `wind_hold_timeout_s`,
+    /// `min_confidence`, `latency_ms`); other fields keep [`Default`]'s.
+    ///
+    /// # Errors
+    /// [`scenario::ParamError::Value`] for a wrong type or an out-of-range value.
+    pub fn from_params(
+        r: &mut scenario::Reader<'_>,
+        kind: TaskKind,
+    ) -> Result<Self, scenario::ParamError> {
+        let d = Self::default();
+        let mut s = r.section("task");
+        let mut wind = d.wind;
+        wind.sigmas = s.f64(
+            "wind_sigmas",
+            wind.sigmas,
+            "",
+            "hold while the wind reading plus this many sigmas of its error exceeds the limit",
+        )?;
+        wind.hold_timeout = s.seconds(
+            "wind_hold_timeout_s",
+            wind.hold_timeout,
+            "refuse after holding for the wind this long",
+        )?;
+        let mut thresholds = d.thresholds;
+        thresholds.min_score = s.f64(
+            "min_confidence",
+            thresholds.min_score,
+            "",
+            "least perception confidence acted upon",
+        )?;
+        Ok(Self {
+            kind,
+            start_at: s.time_s(
+                "start_s",
+                d.start_at,
+                "the task starts at the first clock at or after this",
+            )?,
+            self_maintenance: s.bool(
+                "self_maintenance",
+                d.self_maintenance,
+                "check the calibration before operating and recalibrate on drift",
+            )?,
+            standoff_m: s.f64(
+                "standoff_m",
+                d.standoff_m,
+                "m",
+                "wrist camera standoff from the wire and the handle",
+            )?,
+            wire_captures: s.count("wire_captures", d.wire_captures, 1, "wire captures fused")?,
+            handle_captures: s.count(
+                "handle_captures",
+                d.handle_captures,
+                1,
+                "handle captures fused",
+            )?,
+            approach_m: s.f64(
+                "approach_m",
+                d.approach_m,
+                "m",
+                "horizontal distance of the hook's pre-approach from the wire",
+            )?,
+            attempts: s.count(
+                "attempts",
+                d.attempts,
+                1,
+                "attempts of a perception-and-act cycle before failing",
+            )?,
+            clamp_torque_nm: s.f64(
+                "clamp_torque_nm",
+                d.clamp_torque_nm,
+                "N m",
+                "clamp torque limit",
+            )?,
+            operation_timeout: s.seconds(
+                "operation_timeout_s",
+                d.operation_timeout,
+                "an operation fails when it lasts longer than this",
+            )?,
+            latency: s.millis("latency_ms", d.latency, "stage latency")?,
+            wind,
+            thresholds,
+            ..d
+        })
+    }
+}
+
 /// The steps of the flows (module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Step {

@@ -11,14 +11,15 @@ use msgs::std_msgs::{Empty, Float64, Header};
 use msgs::topics;
 use msgs::trajectory_msgs::{JointTrajectory, JointTrajectoryPoint};
 use msgs::{Msg, RobotDuration, RobotTime};
-use sim::scenario::ScenarioCommand;
-use sim::{Scenario, SimWorld};
+use scenario::Scenario;
+use scenario::{Command, CommandKind};
+use sim::{SimConfig, SimWorld};
 
 /// The command's topic and message.
-pub fn command_msg(c: &ScenarioCommand) -> (&'static str, Msg) {
+pub fn command_msg(c: &Command) -> (&'static str, Msg) {
     let v = |i: usize| c.values.get(i).copied().unwrap_or(0.0);
-    match c.kind.as_str() {
-        "joints" => (
+    match c.kind {
+        CommandKind::Joints => (
             topics::ARM_JOINT_TRAJECTORY,
             JointTrajectory {
                 header: Header::default(),
@@ -33,8 +34,8 @@ pub fn command_msg(c: &ScenarioCommand) -> (&'static str, Msg) {
             }
             .into(),
         ),
-        "lift" => (topics::LIFT_COMMAND, Float64 { data: v(0) }.into()),
-        "base" => {
+        CommandKind::Lift => (topics::LIFT_COMMAND, Float64 { data: v(0) }.into()),
+        CommandKind::Base => {
             let (s, co) = (0.5 * v(2)).sin_cos();
             (
                 topics::BASE_GOAL,
@@ -60,7 +61,7 @@ pub fn command_msg(c: &ScenarioCommand) -> (&'static str, Msg) {
                 .into(),
             )
         }
-        "clamp" => (
+        CommandKind::Clamp => (
             topics::CLAMP_COMMAND,
             ClampCommand {
                 header: Header::default(),
@@ -69,7 +70,7 @@ pub fn command_msg(c: &ScenarioCommand) -> (&'static str, Msg) {
             }
             .into(),
         ),
-        _ => (topics::CAMERA_TRIGGER, Empty.into()),
+        CommandKind::Capture => (topics::CAMERA_TRIGGER, Empty.into()),
     }
 }
 
@@ -79,8 +80,8 @@ pub fn run(
     scenario: &Scenario,
     until: RobotTime,
 ) -> Result<(SimWorld, Vec<DriverOutput>), Box<dyn std::error::Error>> {
-    let mut world = SimWorld::from_scenario(scenario)?;
-    let mut commands: Vec<(RobotTime, &ScenarioCommand)> = scenario
+    let mut world = SimWorld::new(&SimConfig::of_scenario(scenario)?)?;
+    let mut commands: Vec<(RobotTime, &Command)> = scenario
         .commands
         .iter()
         .map(|c| RobotTime::from_secs_f64(c.t_s).map(|t| (t, c)))

@@ -13,8 +13,7 @@ fn detect(img: &GrayBuf, params: &AkazeParams) -> AkazeFeatures {
 }
 
 fn shecar_crop(w: u32, h: u32) -> Option<GrayBuf> {
-    let p =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/shecar/00.jpg");
+    let p = testkit::shared_data("shecar/00.jpg", "AKAZE on a real image")?;
     let full = load_gray(&p).ok()?;
     let img = crop_resize(&full, w, h);
     Some(GrayBuf {
@@ -131,7 +130,6 @@ fn orientation_turns_with_the_image() {
 #[test]
 fn rotated_scaled_real_image_matches_after_ransac() {
     let Some(a) = shecar_crop(640, 512) else {
-        eprintln!("skipped: ../shared/data/shecar not found next to the repository");
         return;
     };
     let h: Matrix3<f64> = similarity(25f64.to_radians(), 0.8, 320.0, 256.0, 12.0, -8.0);

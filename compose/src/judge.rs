@@ -30,7 +30,6 @@
 //! their radius at the caps), boxes exactly, the arm and the rod as the robot's capsule model
 //! (`control::motion::collision`) on the true kinematics.
 
-use anyhow::{Context as _, bail};
 use control::motion::collision::{
     ARM_LINK_NAMES, ArmCollisionModel, CHASSIS_CENTRE_Z_M, CHASSIS_HALF_EXTENTS_M, Capsule,
     CollisionWorld, OrientedBox, SELF_COLLISION_PAIRS, capsule_box, capsule_capsule,
@@ -47,7 +46,9 @@ use robot::grounding_rod::{
 };
 use serde::Serialize;
 
-/// The operating wind limit (m/s, 3-s mean), DESIGN.md s6.
+use crate::error::ComposeError;
+
+/// The operating wind limit (m/s, 3-s mean).
 pub const WIND_LIMIT_MPS: f64 = 2.0;
 /// Largest joint step between two judged samples of an arm motion (rad).
 pub const SAMPLE_RAD: f64 = 0.01;
@@ -467,19 +468,26 @@ fn chassis_clearance(truth: &Truth, map_from_base: &Isometry3<f64>) -> (f64, Str
 ///
 /// # Errors
 /// An unreadable recording, one without a simulator scenario, undecodable messages.
-pub fn judge(path: &std::path::Path) -> anyhow::Result<Verdict> {
-    let scenario = crate::cmd::record::scenario_of_recording(path)?;
-    if scenario.params.str_or("world", "sim")? != "sim" {
-        bail!(
-            "{}: not a simulator recording (world = test_world): nothing to judge against",
-            path.display()
-        );
-    }
-    let world = crate::cmd::record::sim_world(&scenario)?;
-    let perturbation = world.scenario().robot.perturbation;
+pub fn judge(path: &std::path::Path) -> Result<Verdict, ComposeError> {
+    let (scenario, _migrated) = crate::load::scenario_of_recording(path)?;
+    // The judge rebuilds the recorded world: the recording's own keys are tolerated (a key
+    // this version no longer knows cannot change the truth it rebuilds).
+    let tolerated = scenario.params.keys().map(str::to_owned).collect();
+    let plan = crate::Plan::tolerating(&scenario, &tolerated)?;
+    let Some(config) = plan.sim_config() else {
+        return Err(ComposeError::NotJudgeable {
+            path: path.to_path_buf(),
+            world: plan.world_kind().name().to_owned(),
+        });
+    };
+    let world = sim::SimWorld::new(config)?;
+    let perturbation = config.robot.perturbation;
     let truth = Truth::build(&world, perturbation, scenario.seed);
-    let mut reader =
-        McapReader::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let read = |source| ComposeError::Read {
+        path: path.to_path_buf(),
+        source: Box::new(source),
+    };
+    let mut reader = McapReader::open(path).map_err(read)?;
     let filter = ReadFilter::all().with_topics([
         topics::JOINT_STATES,
         topics::SIM_BASE_POSE,
@@ -501,7 +509,7 @@ pub fn judge(path: &std::path::Path) -> anyhow::Result<Verdict> {
     let mut state = State {
         map_from_base: world.layout().world_from_robot_spot,
         lift_m: 0.0,
-        q: world.scenario().robot.home_rad,
+        q: config.robot.home_rad,
         map_from_rod: world.rod().world_from_rod,
         wire_pose: None,
         wind_mps: 0.0,
@@ -527,10 +535,15 @@ pub fn judge(path: &std::path::Path) -> anyhow::Result<Verdict> {
     let mut true_mount: Option<Isometry3<f64>> = None;
     let limits = robot::aubo_i10::aubo_i10_limits();
     for m in reader.messages(&filter) {
-        let m = m?;
+        let m = m.map_err(read)?;
         let t_s = m.log_time_ns as f64 * 1e-9;
         let topic = m.topic().to_owned();
-        let msg = m.decode()?;
+        let msg = m.decode().map_err(|e| ComposeError::Decode {
+            path: path.to_path_buf(),
+            topic: topic.clone(),
+            log_time_ns: m.log_time_ns,
+            reason: e.to_string(),
+        })?;
         match (topic.as_str(), &msg) {
             (topics::JOINT_STATES, Msg::JointState(js)) => {
                 for (k, name) in js.name.iter().enumerate() {

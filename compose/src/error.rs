@@ -1,0 +1,83 @@
+//! Errors of the composition root.
+
+use std::path::PathBuf;
+
+/// Errors of loading a scenario, composing a pipeline and a world, recording and judging.
+#[derive(Debug, thiserror::Error)]
+pub enum ComposeError {
+    /// A scenario file or record is malformed or missing.
+    #[error(transparent)]
+    Scenario(#[from] scenario::ScenarioError),
+    /// A parameter is mistyped, out of range, or not consumed by any part.
+    #[error(transparent)]
+    Param(#[from] scenario::ParamError),
+    /// A stage rejected its configuration.
+    #[error(transparent)]
+    Stage(Box<msgs::StageError>),
+    /// The script stage rejected a command.
+    #[error(transparent)]
+    Script(Box<control::script::ScriptError>),
+    /// The simulator could not be built.
+    #[error(transparent)]
+    Sim(Box<sim::SimError>),
+    /// Recording failed.
+    #[error(transparent)]
+    Record(Box<recorder::RecordError>),
+    /// A recording could not be read.
+    #[error("{path}: {source}")]
+    Read {
+        /// The recording.
+        path: PathBuf,
+        /// Why.
+        source: Box<replay::ReadError>,
+    },
+    /// A recording has no `scenario` metadata record: it was not made by `rodlog record`.
+    #[error("{path} has no scenario metadata record (not made by rodlog record)")]
+    NoScenario {
+        /// The recording.
+        path: PathBuf,
+    },
+    /// A recorded message could not be decoded.
+    #[error("{path}: cannot decode {topic} at {log_time_ns} ns: {reason}")]
+    Decode {
+        /// The recording.
+        path: PathBuf,
+        /// Topic.
+        topic: String,
+        /// Log time.
+        log_time_ns: u64,
+        /// Codec message.
+        reason: String,
+    },
+    /// The attached scenario file is not UTF-8.
+    #[error("{path}: the attached scenario is not UTF-8")]
+    AttachmentText {
+        /// The recording.
+        path: PathBuf,
+    },
+    /// A recording cannot be judged: it is not a simulator run.
+    #[error("{path}: not a simulator recording (world = {world}): nothing to judge against")]
+    NotJudgeable {
+        /// The recording.
+        path: PathBuf,
+        /// Its world.
+        world: String,
+    },
+}
+
+macro_rules! boxed_from {
+    ($($variant:ident($t:ty)),*) => {
+        $(impl From<$t> for ComposeError {
+            fn from(e: $t) -> Self {
+                Self::$variant(Box::new(e))
+            }
+        })*
+    };
+}
+
+boxed_from!(
+    Stage(msgs::StageError),
+    Script(control::script::ScriptError),
+    Sim(sim::SimError),
+    Record(recorder::RecordError)
+);
