@@ -92,6 +92,22 @@ pub enum Ros2Error {
         /// RustDDS's explanation.
         reason: String,
     },
+    /// A service reply is too short for the service mapping's header.
+    #[error("reply of service {service} is {len} bytes, too short for its request header")]
+    ServiceReply {
+        /// Service name.
+        service: String,
+        /// Reply length.
+        len: usize,
+    },
+    /// A service type is not `pkg/srv/Name`.
+    #[error(
+        "invalid ROS 2 service type {type_name:?} (expected pkg/srv/Name, e.g. std_srvs/srv/Trigger)"
+    )]
+    InvalidServiceType {
+        /// The type name given.
+        type_name: String,
+    },
     /// Waiting for data (the `mio` poll) failed.
     #[error("waiting for data on {topic} failed: {source}")]
     Poll {

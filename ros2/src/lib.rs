@@ -9,6 +9,7 @@
 //! | [`node`] | [`Node`], [`NodeOptions`], [`DiscoveryRange`]: one DDS participant per node, `ROS_DOMAIN_ID` |
 //! | [`subscription`] | [`Subscription`] yielding [`Received`] (raw CDR, source stamp, arrival instant); [`TopicCounters`] |
 //! | [`publisher`] | [`Publisher`]: `publish(&[u8])` of CDR with its encapsulation header |
+//! | [`service`] | [`ServiceClient`]: a raw ROS 2 service client, [`ServiceMapping`] Cyclone or Fast DDS |
 //! | [`graph`] | [`Endpoint`]: the writers and readers of a topic, local and discovered |
 //! | [`names`] | ROS 2 names on DDS: `rt/<topic>`, `pkg::msg::dds_::Type_`, `rq/`/`rr/` services |
 //! | [`qos`] | [`Qos`] and the presets real drivers use ([`Qos::for_subscription`], [`Qos::for_publisher`]) |
@@ -27,7 +28,6 @@
 //! [`Subscription::recv_timeout`] blocks (a `mio` poll on the reader), [`Subscription::try_recv`]
 //! does not; a subscription belongs to one thread at a time (move it to a dedicated thread, or
 //! into `tokio::task::spawn_blocking`). [`TopicCounters`] are atomics shared with any thread.
-//! Services (`rq/<name>Request`, `rr/<name>Reply`) are not implemented yet: see `MEASUREMENT.md`.
 #![warn(missing_docs)]
 
 pub mod error;
@@ -37,6 +37,7 @@ pub mod node;
 pub mod publisher;
 pub mod qos;
 mod raw;
+pub mod service;
 pub mod subscription;
 
 pub use error::Ros2Error;
@@ -44,4 +45,5 @@ pub use graph::{Endpoint, EndpointKind};
 pub use node::{DiscoveryRange, Node, NodeOptions};
 pub use publisher::Publisher;
 pub use qos::{Durability, Qos, Reliability};
+pub use service::{ServiceClient, ServiceMapping};
 pub use subscription::{Received, Subscription, TopicCounters};

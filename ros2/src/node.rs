@@ -23,6 +23,7 @@ use crate::names;
 use crate::publisher::Publisher;
 use crate::qos::Qos;
 use crate::raw::RawCdr;
+use crate::service::{ServiceClient, ServiceMapping};
 use crate::subscription::Subscription;
 
 /// Where participants look for each other.
@@ -261,6 +262,77 @@ impl Node {
     /// See [`Node::publisher_raw`].
     pub fn publisher_spec(&self, spec: &msgs::TopicSpec) -> Result<Publisher, Ros2Error> {
         self.publisher_raw(spec.name, spec.type_name, Qos::for_publisher(spec))
+    }
+
+    /// A raw client of `service` (absolute, or relative to the namespace) of type `srv_type`
+    /// (`pkg/srv/Name`), matching replies as the server's middleware does (`mapping`).
+    ///
+    /// # Errors
+    /// [`Ros2Error::InvalidName`], [`Ros2Error::InvalidServiceType`],
+    /// [`Ros2Error::CreateEndpoint`], [`Ros2Error::Poll`].
+    pub fn service_client_raw(
+        &self,
+        service: &str,
+        srv_type: &str,
+        mapping: ServiceMapping,
+    ) -> Result<ServiceClient, Ros2Error> {
+        let ros_service = names::resolve(&self.namespace, service)?;
+        let (rq, rr) = names::dds_service_topics(&ros_service)?;
+        let types = srv_type
+            .contains("/srv/")
+            .then(|| {
+                Some((
+                    names::dds_type(&format!("{srv_type}_Request")).ok()?,
+                    names::dds_type(&format!("{srv_type}_Response")).ok()?,
+                ))
+            })
+            .flatten();
+        let Some((rq_type, rr_type)) = types else {
+            return Err(Ros2Error::InvalidServiceType {
+                type_name: srv_type.to_string(),
+            });
+        };
+        let qos = Qos::COMMAND.to_dds();
+        let rq_topic = self.topic(&ros_service, &rq, &rq_type, &qos)?;
+        let rr_topic = self.topic(&ros_service, &rr, &rr_type, &qos)?;
+        let writer = self
+            .dds_publisher
+            .create_datawriter_no_key::<Bytes, RawCdr>(&rq_topic, Some(qos.clone()))
+            .map_err(|e| create_err(&ros_service, "request writer", &e))?;
+        let reader = self
+            .dds_subscriber
+            .create_datareader_no_key::<Vec<u8>, RawCdr>(&rr_topic, Some(qos.clone()))
+            .map_err(|e| create_err(&ros_service, "reply reader", &e))?;
+        for (kind, topic, type_name, guid) in [
+            (EndpointKind::Writer, &rq, &rq_type, writer.guid()),
+            (EndpointKind::Reader, &rr, &rr_type, reader.guid()),
+        ] {
+            self.local.insert(Endpoint::new(
+                kind,
+                topic,
+                type_name,
+                guid,
+                true,
+                qos.reliability(),
+                qos.durability(),
+            ));
+        }
+        ServiceClient::new(ros_service, mapping, writer, reader, self.local.clone())
+    }
+
+    /// Whether a server of `service` is discovered: a remote reader of its requests and a
+    /// remote writer of its replies.
+    ///
+    /// # Errors
+    /// [`Ros2Error::InvalidName`].
+    pub fn service_available(&self, service: &str) -> Result<bool, Ros2Error> {
+        let (rq, rr) = names::dds_service_topics(&names::resolve(&self.namespace, service)?)?;
+        let all = self.endpoints();
+        let has = |kind, topic: &str| {
+            all.iter()
+                .any(|e| !e.local && e.kind == kind && e.dds_topic == topic)
+        };
+        Ok(has(EndpointKind::Reader, &rq) && has(EndpointKind::Writer, &rr))
     }
 
     /// Every writer and reader known: this node's, then those discovered from other

@@ -18,7 +18,7 @@ use msgs::sensor_msgs::{Image, JointState};
 use msgs::std_msgs::Header;
 use msgs::tf2_msgs::TfMessage;
 use msgs::{Msg, topics};
-use ros2::{DiscoveryRange, EndpointKind, Node, NodeOptions, Qos};
+use ros2::{DiscoveryRange, EndpointKind, Node, NodeOptions, Qos, ServiceMapping};
 use serde_json::Value;
 
 const JOINT_NAMES: [&str; 6] = [
@@ -486,6 +486,68 @@ fn a_node_on_another_domain_receives_nothing() {
     );
     assert!(!saw_writer, "domain 46 discovered the domain-45 writer");
     assert_eq!(sub_other.counters().received(), 0);
+}
+
+/// `std_srvs/srv/Trigger` response.
+#[derive(Debug, serde::Deserialize)]
+struct TriggerResponse {
+    success: bool,
+    message: String,
+}
+
+#[test]
+fn a_raw_service_client_calls_a_cyclone_mapped_server() {
+    let Some(python) = peer_python("a_raw_service_client_calls_a_cyclone_mapped_server") else {
+        return;
+    };
+    let node = node(47);
+    let mut client = node
+        .service_client_raw(
+            "/mecheye/capture",
+            "std_srvs/srv/Trigger",
+            ServiceMapping::Cyclone,
+        )
+        .expect("client");
+    let (peer, out) = spawn_peer(
+        &python,
+        "srv",
+        &[
+            "serve-trigger",
+            "--domain",
+            "47",
+            "--topic",
+            "/mecheye/capture",
+            "--count",
+            "3",
+        ],
+    );
+    let end = Instant::now() + Duration::from_secs(20);
+    while !node.service_available("/mecheye/capture").expect("name") {
+        assert!(Instant::now() < end, "the server was not discovered");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::thread::sleep(Duration::from_millis(500));
+    // Trigger_Request is `uint8 structure_needs_at_least_one_member`.
+    let request = [0x00, 0x01, 0x00, 0x00, 0x00];
+    for i in 1..=3 {
+        let response = client
+            .call_raw(&request, Duration::from_secs(10))
+            .expect("call")
+            .expect("a response within 10 s");
+        let r: TriggerResponse = msgs::from_cdr(&response).expect("Trigger response CDR");
+        assert!(r.success);
+        assert_eq!(r.message, format!("captured {i}"));
+    }
+    let report = finish(peer, &out);
+    let served = report["served"].as_array().expect("served");
+    assert_eq!(served.len(), 3);
+    for (i, s) in served.iter().enumerate() {
+        assert_eq!(s["sequence"], i + 1);
+        // The request on the wire: encapsulation header, 16-byte Cyclone header, the field.
+        let hex = s["request_hex"].as_str().expect("hex");
+        assert_eq!(&hex[..8], "00010000");
+        assert_eq!(&hex[40..42], "00");
+    }
 }
 
 /// Byte vector of a hex string.

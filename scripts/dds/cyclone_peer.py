@@ -15,6 +15,9 @@ Modes (domain from --domain, else ROS_DOMAIN_ID, else 0):
                     --duration s, pre-serialised once (only the stamp is patched per message)
                     and written as raw CDR, so the Python serialiser is not the bottleneck
   bench-sub         count and time what arrives on the three bench topics (raw, no decoding)
+  serve-trigger     a std_srvs/Trigger server on service --topic, as rmw_cyclonedds maps it:
+                    rq/<service>Request and rr/<service>Reply, each payload starting with the
+                    16-byte header {uint64 client_id, int64 sequence} the reply echoes
 
 Publishers wait up to --wait-match s for --readers matched readers before the first message,
 and up to --linger s after the last (for reliable delivery and late joiners).
@@ -49,7 +52,8 @@ ANY_INTERFACE_URI = "<CycloneDDS><Domain>" + BUFFERS + "</Domain></CycloneDDS>"
 
 def parse_args():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("mode", choices=["pub-joint-states", "pub-image", "sub", "bench-pub", "bench-sub"])
+    p.add_argument("mode", choices=["pub-joint-states", "pub-image", "sub", "bench-pub", "bench-sub",
+                                   "serve-trigger"])
     p.add_argument("--domain", type=int, default=None)
     p.add_argument("--topic", default=None, help="ROS topic name, e.g. /joint_states")
     p.add_argument("--type", default="joint_state", choices=["joint_state", "image", "tf"])
@@ -81,7 +85,7 @@ os.environ["CYCLONEDDS_URI"] = ANY_INTERFACE_URI if ARGS.any_interface else LOCA
 from cyclonedds.core import Policy, Qos  # noqa: E402 (after CYCLONEDDS_URI is set)
 from cyclonedds.domain import DomainParticipant  # noqa: E402
 from cyclonedds.idl import IdlStruct  # noqa: E402
-from cyclonedds.idl.types import float64, int32, sequence, uint8, uint32  # noqa: E402
+from cyclonedds.idl.types import float64, int32, int64, sequence, uint8, uint32, uint64  # noqa: E402
 from cyclonedds.pub import DataWriter  # noqa: E402
 from cyclonedds.sub import DataReader  # noqa: E402
 from cyclonedds.topic import Topic  # noqa: E402
@@ -152,6 +156,23 @@ class TransformStamped(IdlStruct, typename="geometry_msgs::msg::dds_::TransformS
 @dataclass
 class TFMessage(IdlStruct, typename="tf2_msgs::msg::dds_::TFMessage_"):
     transforms: sequence[TransformStamped]
+
+
+# rmw_cyclonedds writes its request header in front of the fields, so on the wire the service
+# types are these (Cyclone checks written bytes against the type, so the header must be in it).
+@dataclass
+class TriggerRequest(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Request_"):
+    client_id: uint64
+    sequence: int64
+    structure_needs_at_least_one_member: uint8
+
+
+@dataclass
+class TriggerResponse(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Response_"):
+    client_id: uint64
+    sequence: int64
+    success: bool
+    message: str
 
 
 TYPES = {"joint_state": JointState, "image": Image, "tf": TFMessage}
@@ -414,6 +435,28 @@ def run_bench_sub(dp: DomainParticipant):
             "cpu_core_fraction": cpu / elapsed if elapsed > 0 else None, "topics": out})
 
 
+def run_serve_trigger(dp: DomainParticipant):
+    name = ARGS.topic or "/trigger"
+    rel = qos("reliable", "volatile", 10)
+    reader = DataReader(dp, Topic(dp, "rq" + name + "Request", TriggerRequest), rel)
+    writer = DataWriter(dp, Topic(dp, "rr" + name + "Reply", TriggerResponse), rel)
+    mask = SampleState.Any | ViewState.Any | InstanceState.Any
+    served = []
+    end = time.monotonic() + ARGS.timeout
+    while time.monotonic() < end and len(served) < ARGS.count:
+        ret = ddspy_take(reader._ref, mask, 16)
+        for data, info in [] if isinstance(ret, int) else ret:
+            if not info.valid_data or len(data) < 20:
+                continue
+            client_id, seq = struct.unpack("<Qq", bytes(data[4:20]))
+            writer.write(TriggerResponse(client_id=client_id, sequence=seq, success=True,
+                                         message=f"captured {seq}"))
+            served.append({"client_id": client_id, "sequence": seq, "request_hex": bytes(data).hex()})
+        time.sleep(0.002)
+    time.sleep(ARGS.linger)
+    report({"mode": "serve-trigger", "served": served})
+
+
 def main():
     domain = ARGS.domain if ARGS.domain is not None else int(os.environ.get("ROS_DOMAIN_ID", "0"))
     dp = DomainParticipant(domain)
@@ -435,6 +478,8 @@ def main():
         run_sub(dp)
     elif ARGS.mode == "bench-pub":
         run_bench_pub(dp)
+    elif ARGS.mode == "serve-trigger":
+        run_serve_trigger(dp)
     else:
         run_bench_sub(dp)
 
