@@ -28,6 +28,13 @@
 //! [`Subscription::recv_timeout`] blocks (a `mio` poll on the reader), [`Subscription::try_recv`]
 //! does not; a subscription belongs to one thread at a time (move it to a dedicated thread, or
 //! into `tokio::task::spawn_blocking`). [`TopicCounters`] are atomics shared with any thread.
+//!
+//! # Discovery takes time, both ways
+//!
+//! A reader drops samples of a writer it has not matched yet, and matching needs both sides'
+//! announcements (0.1-0.5 s on one host). A writer that starts as soon as *it* sees the reader
+//! loses its first sample about one time in three (measured against Cyclone at 100 Hz); the
+//! tests and the Cyclone peer wait for the match, then settle, before sending.
 #![warn(missing_docs)]
 
 pub mod error;

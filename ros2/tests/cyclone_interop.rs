@@ -158,7 +158,12 @@ fn cyclone_joint_states_reliable_arrive_byte_identical() {
     };
     let node = node(41);
     let spec = topics::lookup(topics::JOINT_STATES).expect("registered");
-    let mut sub = node.subscribe_spec(spec).expect("subscribe");
+    // Best effort as a recorder subscribes, with room for 1 s of a stalled test thread (the
+    // image test runs beside this one): what is checked here is the bytes, not the depth.
+    let qos = Qos::for_subscription(spec).with_depth(100);
+    let mut sub = node
+        .subscribe_raw(spec.name, spec.type_name, qos)
+        .expect("subscribe");
     let (peer, out) = spawn_peer(
         &python,
         "js",

@@ -19,8 +19,9 @@ Modes (domain from --domain, else ROS_DOMAIN_ID, else 0):
                     rq/<service>Request and rr/<service>Reply, each payload starting with the
                     16-byte header {uint64 client_id, int64 sequence} the reply echoes
 
-Publishers wait up to --wait-match s for --readers matched readers before the first message,
-and up to --linger s after the last (for reliable delivery and late joiners).
+Publishers wait up to --wait-match s for --readers matched readers, then --settle s (the
+readers must match the writer too), before the first message, and --linger s after the last
+(for reliable delivery and late joiners).
 """
 
 import argparse
@@ -71,6 +72,9 @@ def parse_args():
     p.add_argument("--wait-match", type=float, default=15.0)
     p.add_argument("--readers", type=int, default=1)
     p.add_argument("--linger", type=float, default=1.0)
+    p.add_argument("--settle", type=float, default=1.0,
+                   help="s to wait after the readers matched: discovery is two-way, and a "
+                   "reader drops samples of a writer it has not matched yet")
     p.add_argument("--out", default=None)
     p.add_argument("--raw", action="store_true",
                    help="sub: record sizes and times only (no decoding); pub-image: serialise "
@@ -263,6 +267,8 @@ def run_pub(dp: DomainParticipant, topic_name: str, cls, make, reliability: str,
     t_match = time.monotonic()
     matched = ARGS.readers == 0 or wait_for_readers([writer], ARGS.readers, ARGS.wait_match)
     discovery_s = time.monotonic() - t_match
+    if ARGS.readers > 0:
+        time.sleep(ARGS.settle)
     period = 1.0 / ARGS.rate
     next_t = time.monotonic()
     write_s = []
@@ -365,6 +371,7 @@ def run_bench_pub(dp: DomainParticipant):
         wr = DataWriter(dp, Topic(dp, dds_topic(name), cls), qos(r, "volatile", ARGS.depth))
         writers[name] = (wr, sample.serialize(use_version_2=wr._use_version_2))
     matched = wait_for_readers([v[0] for v in writers.values()], ARGS.readers, ARGS.wait_match)
+    time.sleep(ARGS.settle)
     sent = {k: 0 for k in writers}
     write_s = {k: [] for k in writers}
     start = time.monotonic()
