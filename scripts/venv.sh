@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Creates the throw-away Python venv of pinned reference tools used by tests and benchmarks
 # (DESIGN.md s8): OpenCV (hand-eye, ORB, SIFT), the Rerun viewer/CLI, and two independent
-# ROS 2 MCAP decoders. Idempotent: re-running only installs what is missing.
+# ROS 2 MCAP decoders, and Eclipse Cyclone DDS (the independent DDS peer of ros2/tests). Idempotent: re-running only installs what is missing.
 # Usage: scripts/venv.sh [DIR]   (default .venv-ref at the repository root)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -13,5 +13,6 @@ python3 -m venv "$venv"
   "rerun-sdk==0.36.3" \
   "mcap==1.*" \
   "mcap-ros2-support==0.5.*" \
-  "rosbags==0.10.*"
+  "rosbags==0.10.*" \
+  "cyclonedds==11.0.1"
 echo "$venv"

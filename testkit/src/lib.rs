@@ -6,7 +6,7 @@
 //! `NOTICE: ... skipped` line and passes. With `RODLOG_NO_SKIP=1` (what `.ci/run` sets) a
 //! skip is a failure instead, so CI never passes a test it did not run.
 //!
-//! - [`ref_venv`], [`venv_tool`]: the venv (`RODLOG_REF_VENV`, default `<repo>/.venv-ref`).
+//! - [`ref_venv`], [`venv_tool`], [`venv_python_with`]: the venv (`RODLOG_REF_VENV`, default `<repo>/.venv-ref`).
 //! - [`shared_data`]: a file or folder of the shared data (`RODLOG_SHARED_DATA`, default
 //!   `<repo>/../shared/data`).
 //! - [`skip`]: the decision itself, for any other missing requirement.
@@ -75,6 +75,32 @@ pub fn venv_tool(tool: &str, test: &str) -> Option<PathBuf> {
         return Some(exe);
     }
     skip(test, &format!("no {} (run scripts/venv.sh)", exe.display()));
+    None
+}
+
+/// The reference venv's `bin/python` when it can import `module`, or `None` after [`skip`].
+///
+/// # Panics
+/// With `RODLOG_NO_SKIP=1` when the venv or the module is missing.
+#[must_use]
+pub fn venv_python_with(module: &str, test: &str) -> Option<PathBuf> {
+    let python = venv_tool("python", test)?;
+    let importable = std::process::Command::new(&python)
+        .args(["-c", &format!("import {module}")])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if importable {
+        return Some(python);
+    }
+    skip(
+        test,
+        &format!(
+            "{} cannot import {module} (run scripts/venv.sh)",
+            python.display()
+        ),
+    );
     None
 }
 
