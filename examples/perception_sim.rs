@@ -40,12 +40,12 @@ use anyhow::Context as _;
 use control::perception::colour::LumaImage;
 use control::perception::confidence::ConfidenceThresholds;
 use control::perception::point_cloud::{DepthImage, PinholeCamera, RayTable};
-use control::perception::rng::SplitMix64;
 use control::perception::roi::{PixelRoi, wrist_look_pose};
 use control::perception::wire::{WireObservation, WireParams, detect_wire, estimate_wire};
 use control::perception::{PerceptionError, WIRE_RADIUS_M};
 use msgs::std_msgs::Header;
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use rng::SplitMix64;
 use sim::cameras::{camera_info, color_image, depth_image};
 use sim::config::DepthEncoding;
 use sim::render::{CameraIntrinsics, LightConditions, SensorParams, render_rgbd_with_rays};
@@ -213,7 +213,9 @@ pub fn run_trial(
             rng.uniform(-PRIOR_OFFSET_M, PRIOR_OFFSET_M),
         );
     let tilt = UnitQuaternion::from_scaled_axis(
-        rng.unit_vector() * PRIOR_TILT_DEG.to_radians() * rng.uniform(0.0, 1.0),
+        control::perception::synthetic::unit_vector(&mut rng)
+            * PRIOR_TILT_DEG.to_radians()
+            * rng.uniform(0.0, 1.0),
     );
     let prior_direction = tilt * wire_tangent;
     let spot = layout.world_from_robot_spot.translation.vector;
@@ -242,8 +244,10 @@ pub fn run_trial(
             Isometry3::identity()
         } else {
             Isometry3::from_parts(
-                Translation3::from(rng.unit_vector() * 0.005),
-                UnitQuaternion::from_scaled_axis(rng.unit_vector() * 2f64.to_radians()),
+                Translation3::from(control::perception::synthetic::unit_vector(&mut rng) * 0.005),
+                UnitQuaternion::from_scaled_axis(
+                    control::perception::synthetic::unit_vector(&mut rng) * 2f64.to_radians(),
+                ),
             )
         };
         let world_from_camera = look * jitter;

@@ -7,12 +7,12 @@ use std::hint::black_box;
 
 use control::perception::colour::LumaImage;
 use control::perception::point_cloud::PinholeCamera;
-use control::perception::rng::SplitMix64;
 use control::perception::roi::{PixelRoi, extract_roi};
 use control::perception::synthetic::{NoiseModel, WireScene, wrist_rays};
 use control::perception::wire::{WireParams, detect_wire};
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::Vector3;
+use rng::SplitMix64;
 
 fn perception(c: &mut Criterion) {
     let Ok(rays) = wrist_rays() else {

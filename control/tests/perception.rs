@@ -2,6 +2,7 @@
 //! the centroid bias avoided, hanging point and approach normal in `base_link`, confidence
 //! and refusals, the handle, determinism.
 
+use control::perception::PerceptionError;
 use control::perception::WIRE_RADIUS_M;
 use control::perception::confidence::ConfidenceThresholds;
 use control::perception::cylinder::{Cylinder, RansacParams, fit_cylinder};
@@ -12,9 +13,9 @@ use control::perception::synthetic::{
     CylinderShape, NoiseModel, Scene, WireScene, render_depth, wrist_rays,
 };
 use control::perception::wire::{WireParams, detect_wire, estimate_wire, hanging_point};
-use control::perception::{PerceptionError, rng::SplitMix64};
 use msgs::std_msgs::Header;
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use rng::SplitMix64;
 use std::sync::OnceLock;
 
 fn rays() -> &'static RayTable {
@@ -457,7 +458,7 @@ proptest::proptest! {
     #[test]
     fn ransac_recovers_random_cylinders(seed in 0u64..1_000_000) {
         let mut rng = SplitMix64::new(seed);
-        let direction = rng.unit_vector();
+        let direction = control::perception::synthetic::unit_vector(&mut rng);
         let truth = Cylinder {
             point: Point3::new(rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1), rng.uniform(0.3, 0.6)),
             direction,
@@ -474,11 +475,11 @@ proptest::proptest! {
             let along = rng.uniform(-0.15, 0.15);
             let p = truth.point + direction * along + n * (WIRE_RADIUS_M + 1e-4 * rng.normal());
             points.push(p);
-            normals.push((n + rng.unit_vector() * 0.035).normalize());
+            normals.push((n + control::perception::synthetic::unit_vector(&mut rng) * 0.035).normalize());
         }
         for _ in 0..2000 {
             points.push(truth.point + Vector3::new(rng.uniform(-0.2, 0.2), rng.uniform(-0.2, 0.2), rng.uniform(-0.1, 0.3)));
-            normals.push(rng.unit_vector());
+            normals.push(control::perception::synthetic::unit_vector(&mut rng));
         }
         let fit = fit_cylinder(&points, |k| normals.get(k).copied(), &RansacParams::default());
         proptest::prop_assert!(fit.is_ok(), "{:?}", fit);

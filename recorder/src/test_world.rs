@@ -12,7 +12,7 @@
 //! position; the joint moves at constant speed `min(v_max, |goal - q| / time_from_start)`
 //! (`v_max` = AUBO i10's 3.14 rad/s, J3 2.57 rad/s, times `test_world.speed_scale`) and stops
 //! on the goal. Goals outside +-175 deg or with unknown joint names are rejected.
-//! All randomness comes from SplitMix64 streams seeded with the scenario seed.
+//! All randomness comes from `rng::SplitMix64` streams seeded with the scenario seed.
 
 use msgs::drivers::{DriverError, DriverOutput, World};
 use msgs::frames::{ARM_JOINT_NAMES, LIFT_JOINT};
@@ -21,6 +21,7 @@ use msgs::std_msgs::{Float64, Header};
 use msgs::trajectory_msgs::JointTrajectory;
 use msgs::{Msg, RobotDuration, RobotTime};
 
+use rng::SplitMix64;
 use scenario::{ParamError, Reader};
 
 /// Producer of the arm's joint states.
@@ -43,40 +44,6 @@ const WIND_WINDOW: usize = 30;
 const WIND_TAU_S: f64 = 4.0;
 /// Anemometer noise (1 sigma), m/s.
 const ANEMOMETER_NOISE_MPS: f64 = 0.05;
-
-/// SplitMix64: a tiny seeded generator (Steele, Lea, Flood 2014), plus Box-Muller normals.
-#[derive(Debug, Clone)]
-pub struct SplitMix64 {
-    state: u64,
-}
-
-impl SplitMix64 {
-    /// A stream seeded with `seed`.
-    pub fn new(seed: u64) -> Self {
-        Self { state: seed }
-    }
-
-    /// Next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.state = self.state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in (0, 1].
-    pub fn uniform(&mut self) -> f64 {
-        ((self.next_u64() >> 11) as f64 + 1.0) / (1u64 << 53) as f64
-    }
-
-    /// Standard normal (Box-Muller, one of the pair).
-    pub fn normal(&mut self) -> f64 {
-        let u1 = self.uniform();
-        let u2 = self.uniform();
-        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-    }
-}
 
 /// Parameters of the [`TestWorld`] (`test_world.*`).
 #[derive(Debug, Clone, PartialEq)]

@@ -602,22 +602,7 @@ mod tests {
     use nalgebra::{Translation3, UnitQuaternion};
     use std::f64::consts::TAU;
 
-    /// SplitMix64 (Steele, Lea & Flood 2014): a tiny seeded generator for reproducible tests.
-    struct SplitMix64(u64);
-    impl SplitMix64 {
-        fn next_u64(&mut self) -> u64 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^ (z >> 31)
-        }
-        /// Uniform in [lo, hi).
-        fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-            let unit = (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
-            lo + (hi - lo) * unit
-        }
-    }
+    use rng::SplitMix64;
 
     fn pose_error(a: &Isometry3<f64>, b: &Isometry3<f64>) -> (f64, f64) {
         (
@@ -642,7 +627,7 @@ mod tests {
     fn random_reachable_poses_round_trip() {
         let ik = ArmIk::aubo_i10();
         let lim = crate::aubo_i10::AUBO_I10_POSITION_LIMIT_RAD;
-        let mut rng = SplitMix64(0x5EED_0001);
+        let mut rng = SplitMix64::new(0x5EED_0001);
         let samples = 10_000;
         let (mut skipped, mut solutions_total, mut max_dt, mut max_dr) =
             (0usize, 0usize, 0f64, 0f64);

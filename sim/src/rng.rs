@@ -1,52 +1,9 @@
 //! Counter-based randomness: every random number of the world is a pure function of
-//! `(seed, stream, index)`.
-//!
-//! `key = splitmix64(splitmix64(seed ^ splitmix64(stream)) ^ index)` (SplitMix64 finaliser,
-//! Steele, Lea & Flood, OOPSLA 2014); uniforms take the top 53 bits, normals use Box-Muller
-//! on two derived keys. No generator state is carried between calls, so the values do not
-//! depend on the order or the thread in which they are drawn, nor on how the scheduler
-//! splits its steps.
+//! `(seed, stream, index)` ([`rng::counter`]), one stream per physical process ([`streams`]).
+//! No generator state is carried between calls, so the values do not depend on the order or
+//! the thread in which they are drawn, nor on how the scheduler splits its steps.
 
-/// SplitMix64 finaliser of `x + golden gamma`.
-#[inline]
-#[must_use]
-pub fn splitmix64(x: u64) -> u64 {
-    let mut z = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
-/// 64 random bits for `(seed, stream, index)`.
-#[inline]
-#[must_use]
-pub fn key(seed: u64, stream: u64, index: u64) -> u64 {
-    splitmix64(splitmix64(seed ^ splitmix64(stream)) ^ index)
-}
-
-/// Uniform in `[0, 1)`.
-#[inline]
-#[must_use]
-pub fn uniform(seed: u64, stream: u64, index: u64) -> f64 {
-    (key(seed, stream, index) >> 11) as f64 / (1u64 << 53) as f64
-}
-
-/// Uniform in `[lo, hi)`.
-#[inline]
-#[must_use]
-pub fn uniform_in(seed: u64, stream: u64, index: u64, lo: f64, hi: f64) -> f64 {
-    lo + (hi - lo) * uniform(seed, stream, index)
-}
-
-/// Standard normal (Box-Muller on two derived uniforms).
-#[inline]
-#[must_use]
-pub fn normal(seed: u64, stream: u64, index: u64) -> f64 {
-    let k = key(seed, stream, index);
-    let u1 = ((splitmix64(k) >> 11) as f64 + 1.0) / ((1u64 << 53) as f64 + 1.0);
-    let u2 = (splitmix64(k ^ 0xD1B5_4A32_D192_ED03) >> 11) as f64 / (1u64 << 53) as f64;
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-}
+pub use rng::counter::{key, normal, uniform, uniform_in};
 
 /// Random streams of the world (one per physical process).
 pub mod streams {

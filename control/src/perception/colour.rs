@@ -255,8 +255,8 @@ pub fn limb_contrast(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::perception::rng::SplitMix64;
     use nalgebra::Vector3;
+    use rng::SplitMix64;
 
     /// A `mono8` image of a horizontal bar (the cylinder at z = 0.5 m seen side-on) of
     /// intensity `wire` on `background`, with uniform noise of amplitude `noise`.

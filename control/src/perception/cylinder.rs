@@ -32,8 +32,8 @@
 //! re-selected after each LM round ([`RansacParams::refine_rounds`]).
 
 use super::PerceptionError;
-use super::rng::SplitMix64;
 use nalgebra::{Matrix4, Matrix5, Point3, Vector3, Vector4, Vector5};
+use rng::SplitMix64;
 
 /// An infinite cylinder: axis line and radius.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -206,7 +206,7 @@ where
         points.to_vec()
     } else {
         (0..params.score_subsample)
-            .filter_map(|_| points.get(rng.index(n)).copied())
+            .filter_map(|_| points.get(rng.below(n)).copied())
             .collect()
     };
     let t2 = params.inlier_threshold_m * params.inlier_threshold_m;
@@ -223,7 +223,7 @@ where
     let mut attempts = 0usize;
     while hypotheses < params.iterations && attempts < max_attempts {
         attempts += 1;
-        let (i, j) = (rng.index(n), rng.index(n));
+        let (i, j) = (rng.below(n), rng.below(n));
         let (Some(p1), Some(p2)) = (points.get(i), points.get(j)) else {
             continue;
         };

@@ -13,7 +13,6 @@
 //! | [`colour`] | colour confirmation of a depth fit: silhouette contrast in the registered colour image |
 //! | [`confidence`] | quality metrics -> score in [0, 1], refusal threshold |
 //! | [`synthetic`] | seeded synthetic depth captures (cylinder, plane, boxes, noise, holes) for tests and benches |
-//! | [`rng`] | splitmix64, the only random source |
 //!
 //! Geometric ROI fitting replaces the paper's LA-Net segmentation (DESIGN.md s6): the wire is
 //! whatever a cylinder of the conductor's known radius explains best inside the ROI.
@@ -30,7 +29,6 @@ pub mod cylinder;
 pub mod handle;
 pub mod panoramic;
 pub mod point_cloud;
-pub mod rng;
 pub mod roi;
 pub mod synthetic;
 pub mod wire;

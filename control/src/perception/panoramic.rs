@@ -47,7 +47,7 @@ use nalgebra::{Isometry3, Matrix3, Point3, Vector3};
 
 use super::PerceptionError;
 use super::point_cloud::PinholeCamera;
-use super::rng::SplitMix64;
+use rng::SplitMix64;
 
 /// Samples along the projected prior that fall inside the image must number at least this.
 pub const MIN_SAMPLES_IN_VIEW: usize = 8;
@@ -285,8 +285,8 @@ pub fn find_wire_region(
     let mut best: Option<(usize, Vector3<f64>)> = None;
     if rays.len() >= 2 {
         for _ in 0..params.iterations.max(1) {
-            let i = rng.index(rays.len());
-            let j = rng.index(rays.len());
+            let i = rng.below(rays.len());
+            let j = rng.below(rays.len());
             if i == j {
                 continue;
             }

@@ -14,8 +14,8 @@
 
 use super::WIRE_RADIUS_M;
 use super::point_cloud::{DepthImage, PinholeCamera, RayTable};
-use super::rng::SplitMix64;
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use rng::SplitMix64;
 
 /// Depth noise 1-σ at 0.5 m (m).
 pub const NOISE_AT_HALF_METRE_M: f64 = 0.0001;
@@ -230,7 +230,7 @@ impl WireScene {
                 + across * side * rng.uniform(0.07, 0.12)
                 + Vector3::new(0.0, 0.0, rng.uniform(0.05, 0.2));
             let rotation = UnitQuaternion::from_axis_angle(
-                &nalgebra::Unit::new_normalize(rng.unit_vector()),
+                &nalgebra::Unit::new_normalize(unit_vector(&mut rng)),
                 rng.uniform(0.0, 1.0),
             );
             boxes.push(BoxShape {
@@ -265,4 +265,15 @@ impl WireScene {
 /// Never for the nominal camera; kept fallible for the signature of [`RayTable::new`].
 pub fn wrist_rays() -> Result<RayTable, super::PerceptionError> {
     RayTable::new(&PinholeCamera::wrist_nominal())
+}
+
+/// A uniformly distributed unit vector (a normalised Gaussian triple) from `rng`.
+pub fn unit_vector(rng: &mut rng::SplitMix64) -> nalgebra::Vector3<f64> {
+    loop {
+        let v = nalgebra::Vector3::new(rng.normal(), rng.normal(), rng.normal());
+        let n = v.norm();
+        if n > 1e-9 {
+            return v / n;
+        }
+    }
 }

@@ -818,7 +818,7 @@ pub fn render_rgbd_with_rays(
     let exposure = sensor.rgb.auto_exposure(&histogram);
 
     // Pass 3: sensor noise and quantisation.
-    let rgb_seed = crate::scene::noise::splitmix64(seed ^ RGB_SALT);
+    let rgb_seed = rng::splitmix64(seed ^ RGB_SALT);
     let mut rgb = vec![0u8; 3 * n];
     rgb.par_chunks_mut(3 * chunk)
         .zip(radiance.par_chunks(chunk))

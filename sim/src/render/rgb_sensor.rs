@@ -23,10 +23,10 @@
 //! rescaled to unit variance (exact variance, tails truncated at 3.46 sigma): three orders of
 //! magnitude cheaper than Box-Muller and plenty for sensor noise.
 
-use crate::scene::noise::splitmix64;
+use rng::splitmix64;
 
 /// SplitMix64's increment (the golden-ratio odd constant).
-const SPLITMIX_GAMMA: u64 = 0x9e37_79b9_7f4a_7c15;
+const SPLITMIX_GAMMA: u64 = rng::GAMMA;
 
 /// Colour sensor parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]

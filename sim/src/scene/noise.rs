@@ -27,6 +27,8 @@
 //! final reductions run in the sequential order; results equal the scalar definitions bit
 //! for bit (tested).
 
+use rng::splitmix64;
+
 /// `lowbias32` finaliser: a bijective 32-bit avalanche hash.
 #[inline]
 #[must_use]
@@ -69,16 +71,6 @@ pub fn hash3(x: i32, y: i32, z: i32, seed: u32) -> u32 {
 pub fn unit_f32(h: u32) -> f32 {
     // `h >> 8 < 2^24` fits an i32: one signed conversion, same value.
     ((h >> 8) as i32) as f32 * (1.0 / 16_777_216.0)
-}
-
-/// SplitMix64 finaliser (bijective on u64).
-#[inline]
-#[must_use]
-pub fn splitmix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
 }
 
 /// Counter-based uniform in (0, 1) keyed by (seed, counter): a pure function, so each pixel
