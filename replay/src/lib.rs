@@ -1,6 +1,12 @@
-//! MCAP reader (time order, filters, recovery of truncated files), replay, divergence check, what-if.
+//! Reading and replaying recordings.
 //!
-//! So far: [`McapReader`] (see [`reader`]).
+//! - [`reader`]: [`McapReader`], messages in log-time order, filters, and the recovery of
+//!   crashed or truncated files.
+//! - [`replay`](mod@replay): [`replay()`], a recording's inputs fed through a pipeline in the
+//!   recorded merge order, its regenerated outputs compared or written.
+//! - [`check`]: the byte comparison of recorded and regenerated outputs, and the first
+//!   divergence explained field by field.
+//! - [`whatif`]: the summary and metadata of a replay with changed parameters (open-loop).
 
 pub mod check;
 pub mod reader;
