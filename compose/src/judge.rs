@@ -35,10 +35,9 @@ use control::motion::collision::{
     CollisionWorld, OrientedBox, SELF_COLLISION_PAIRS, capsule_box, capsule_capsule,
 };
 use msgs::Msg;
-use msgs::geometry_msgs::Pose;
 use msgs::rodlog_msgs::TaskEvent;
 use msgs::topics;
-use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use replay::{McapReader, ReadFilter};
 use robot::RobotModel;
 use robot::grounding_rod::{
@@ -151,18 +150,6 @@ struct Truth {
     rack_parts: Vec<String>,
     target_wire_rest: Vec<Capsule>,
     wire_rest_frame: Isometry3<f64>,
-}
-
-fn iso_of_pose(p: &Pose) -> Isometry3<f64> {
-    Isometry3::from_parts(
-        Translation3::new(p.position.x, p.position.y, p.position.z),
-        UnitQuaternion::from_quaternion(Quaternion::new(
-            p.orientation.w,
-            p.orientation.x,
-            p.orientation.y,
-            p.orientation.z,
-        )),
-    )
 }
 
 fn shape_to_obstacle(
@@ -558,13 +545,14 @@ pub fn judge(path: &std::path::Path) -> Result<Verdict, ComposeError> {
                 }
             }
             (topics::SIM_BASE_POSE, Msg::PoseStamped(p)) => {
-                state.map_from_base = iso_of_pose(&p.pose)
+                state.map_from_base = robot::conversions::isometry_from_pose(&p.pose)
             }
             (topics::SIM_HANDLE_POSE, Msg::PoseStamped(p)) => {
-                state.map_from_rod = iso_of_pose(&p.pose) * rod_from_handle.inverse();
+                state.map_from_rod =
+                    robot::conversions::isometry_from_pose(&p.pose) * rod_from_handle.inverse();
             }
             (topics::SIM_WIRE_POSE, Msg::PoseStamped(p)) => {
-                state.wire_pose = Some(iso_of_pose(&p.pose))
+                state.wire_pose = Some(robot::conversions::isometry_from_pose(&p.pose))
             }
             (topics::SIM_WIND, Msg::Float64(w)) => state.wind_mps = w.data,
             (topics::SIM_ROD_STATE, Msg::String(s)) => {
@@ -687,7 +675,7 @@ pub fn judge(path: &std::path::Path) -> Result<Verdict, ComposeError> {
                         }
                     }
                     Msg::PoseStamped(goal) => {
-                        let g = iso_of_pose(&goal.pose);
+                        let g = robot::conversions::isometry_from_pose(&goal.pose);
                         let from = state.map_from_base.translation.vector;
                         let to = g.translation.vector;
                         let n = ((to - from).norm() / 0.05).ceil().max(1.0) as usize;

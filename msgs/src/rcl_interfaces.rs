@@ -36,4 +36,26 @@ impl Log {
     pub const ERROR: u8 = 40;
     /// `byte FATAL=50`.
     pub const FATAL: u8 = 50;
+
+    /// A `/rosout` line from the node (stage, driver) `name`, stamped `stamp`, without a
+    /// source location ([`Log::in_file`] adds one).
+    #[must_use]
+    pub fn line(name: &str, stamp: Time, level: u8, text: impl Into<String>) -> Self {
+        Self {
+            stamp,
+            level,
+            name: name.to_owned(),
+            msg: text.into(),
+            file: String::new(),
+            function: String::new(),
+            line: 0,
+        }
+    }
+
+    /// The same line with its source file recorded.
+    #[must_use]
+    pub fn in_file(mut self, file: &str) -> Self {
+        self.file = file.to_owned();
+        self
+    }
 }

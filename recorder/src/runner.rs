@@ -426,15 +426,12 @@ impl Runner {
 
 /// A `/rosout` line at `log_time` from `name`.
 pub fn rosout(name: &str, log_time: RobotTime, level: u8, text: String) -> Msg {
-    Msg::Log(Log {
-        stamp: log_time.to_ros().unwrap_or_default(),
+    Msg::Log(Log::line(
+        name,
+        log_time.to_ros().unwrap_or_default(),
         level,
-        name: name.to_owned(),
-        msg: text,
-        file: String::new(),
-        function: String::new(),
-        line: 0,
-    })
+        text,
+    ))
 }
 
 fn stage_error_log(name: &str, log_time: RobotTime, err: &StageError) -> Msg {

@@ -5,7 +5,9 @@
 //! accepted when `| |q|² - 1 | <= 0.01` (tf2's `validateQuaternion` tolerance) and normalised.
 
 use msgs::builtin_interfaces::Time;
-use msgs::geometry_msgs::{Quaternion, Transform, TransformStamped, Vector3 as Vector3Msg};
+use msgs::geometry_msgs::{
+    Point, Pose, PoseStamped, Quaternion, Transform, TransformStamped, Vector3 as Vector3Msg,
+};
 use msgs::std_msgs::Header;
 use nalgebra::{Isometry3, Quaternion as NaQuaternion, Translation3, UnitQuaternion};
 
@@ -94,6 +96,49 @@ pub fn isometry_from_msg(t: &Transform) -> Result<Isometry3<f64>, ConversionErro
         Translation3::new(v.x, v.y, v.z),
         UnitQuaternion::from_quaternion(q),
     ))
+}
+
+/// `geometry_msgs/Pose` of `frame_from_body`.
+#[must_use]
+pub fn pose_msg(frame_from_body: &Isometry3<f64>) -> Pose {
+    let t = frame_from_body.translation.vector;
+    let q = frame_from_body.rotation.coords; // (i, j, k, w) storage = (x, y, z, w)
+    Pose {
+        position: Point {
+            x: t.x,
+            y: t.y,
+            z: t.z,
+        },
+        orientation: Quaternion {
+            x: q.x,
+            y: q.y,
+            z: q.z,
+            w: q.w,
+        },
+    }
+}
+
+/// `geometry_msgs/PoseStamped` of `frame_from_body` in `frame` at `stamp`.
+#[must_use]
+pub fn pose_stamped(frame: &str, stamp: Time, frame_from_body: &Isometry3<f64>) -> PoseStamped {
+    PoseStamped {
+        header: Header {
+            stamp,
+            frame_id: frame.to_owned(),
+        },
+        pose: pose_msg(frame_from_body),
+    }
+}
+
+/// `frame_from_body` of a `geometry_msgs/Pose`, its quaternion normalised. For a pose that
+/// may be malformed (a foreign recording), check it with [`isometry_from_msg`] first.
+#[must_use]
+pub fn isometry_from_pose(p: &Pose) -> Isometry3<f64> {
+    let o = &p.orientation;
+    Isometry3::from_parts(
+        Translation3::new(p.position.x, p.position.y, p.position.z),
+        UnitQuaternion::from_quaternion(NaQuaternion::new(o.w, o.x, o.y, o.z)),
+    )
 }
 
 /// `TransformStamped` for the edge `parent -> child` carrying `parent_from_child`.

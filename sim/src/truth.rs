@@ -11,9 +11,6 @@
 //! | `/sim/rod_state` | String | 1 Hz and on change | `on_rack`, `in_gripper`, `hooked`, `clamped`, `dropped` |
 //! | `/sim/base_pose` | PoseStamped (`map`) | 10 Hz | true `map_from_base_link` (odometry drifts away from it) |
 
-use msgs::builtin_interfaces::Time;
-use msgs::geometry_msgs::{Point, Pose, PoseStamped, Quaternion};
-use msgs::std_msgs::Header;
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
 use crate::scene::Catenary;
@@ -23,31 +20,7 @@ pub const SIM: &str = "sim";
 /// Position of the handle's reference point in the rod frame (m).
 pub use robot::grounding_rod::HANDLE_CENTER_IN_ROD_M;
 
-/// A `PoseStamped` of `frame_from_body`.
-#[must_use]
-pub fn pose_stamped(frame: &str, stamp: Time, frame_from_body: &Isometry3<f64>) -> PoseStamped {
-    let t = frame_from_body.translation.vector;
-    let q = frame_from_body.rotation;
-    PoseStamped {
-        header: Header {
-            stamp,
-            frame_id: frame.to_owned(),
-        },
-        pose: Pose {
-            position: Point {
-                x: t.x,
-                y: t.y,
-                z: t.z,
-            },
-            orientation: Quaternion {
-                x: q.i,
-                y: q.j,
-                z: q.k,
-                w: q.w,
-            },
-        },
-    }
-}
+pub use robot::conversions::pose_stamped;
 
 /// The hanging point at span position `u_m` of `wire` swayed by `world_from_wire` (the rigid
 /// sway pose): origin on the axis, `x` along the tangent, `z` perpendicular and upwards.

@@ -321,15 +321,12 @@ impl CalibrationStage {
     fn log(level: u8, log_time: RobotTime, text: String) -> (String, Msg) {
         (
             topics::ROSOUT.to_owned(),
-            Msg::Log(Log {
-                stamp: log_time.to_ros().unwrap_or_default(),
+            Msg::Log(Log::line(
+                STAGE_NAME,
+                log_time.to_ros().unwrap_or_default(),
                 level,
-                name: STAGE_NAME.to_owned(),
-                msg: text,
-                file: String::new(),
-                function: String::new(),
-                line: 0,
-            }),
+                text,
+            )),
         )
     }
 

@@ -42,7 +42,7 @@ use msgs::Msg;
 use msgs::frames::{BASE_LINK, MAP};
 use msgs::topics::{ARM_JOINT_TRAJECTORY, JOINT_STATES, SIM_WIRE_POSE, TF, TF_STATIC};
 use msgs::trajectory_msgs::JointTrajectory;
-use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Point3, Quaternion, UnitQuaternion, Vector3};
 use robot::{JointKind, JointLimit, TfBuffer};
 
 use super::collision::{ArmCollisionModel, Capsule, CollisionWorld};
@@ -512,16 +512,6 @@ impl MotionChecker {
             from = *q;
         }
     }
-}
-
-/// `frame_from_body` of a `geometry_msgs/Pose`.
-#[must_use]
-pub fn pose_to_isometry(p: &msgs::geometry_msgs::Pose) -> Isometry3<f64> {
-    let o = &p.orientation;
-    Isometry3::from_parts(
-        Translation3::new(p.position.x, p.position.y, p.position.z),
-        UnitQuaternion::from_quaternion(Quaternion::new(o.w, o.x, o.y, o.z)),
-    )
 }
 
 #[cfg(test)]

@@ -29,7 +29,7 @@ use super::confidence::{Confidence, ConfidenceThresholds, QualityMetrics, assess
 use super::cylinder::{Cylinder, CylinderFit, RansacParams, fit_cylinder};
 use super::point_cloud::{DepthImage, PinholeCamera, RayTable};
 use super::roi::{PixelRoi, canonical_axis_sign, extract_roi};
-use msgs::geometry_msgs::{Point, Pose, PoseStamped, Quaternion};
+use msgs::geometry_msgs::PoseStamped;
 use msgs::std_msgs::Header;
 use nalgebra::{Isometry3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
@@ -380,22 +380,8 @@ pub fn estimate_wire(
 /// `geometry_msgs/PoseStamped` of a pose (for `/perception/target_pose`).
 #[must_use]
 pub fn to_pose_stamped(frame_from_target: &Isometry3<f64>, header: Header) -> PoseStamped {
-    let t = frame_from_target.translation.vector;
-    let q = frame_from_target.rotation.coords;
     PoseStamped {
         header,
-        pose: Pose {
-            position: Point {
-                x: t.x,
-                y: t.y,
-                z: t.z,
-            },
-            orientation: Quaternion {
-                x: q.x,
-                y: q.y,
-                z: q.z,
-                w: q.w,
-            },
-        },
+        pose: robot::conversions::pose_msg(frame_from_target),
     }
 }

@@ -221,15 +221,7 @@ impl PerceiveStage {
     }
 
     fn log(&self, log_time: RobotTime, level: u8, text: String) -> (String, Msg) {
-        let msg = Log {
-            stamp: self.stamp(log_time),
-            level,
-            name: STAGE_NAME.to_owned(),
-            msg: text,
-            file: file!().to_owned(),
-            function: String::new(),
-            line: 0,
-        };
+        let msg = Log::line(STAGE_NAME, self.stamp(log_time), level, text).in_file(file!());
         (ROSOUT.to_owned(), msg.into())
     }
 
