@@ -49,3 +49,65 @@ fn task_experiments_smoke_runs() {
         .expect("bin");
     assert_eq!(big["drifted"], 1, "{maintenance}");
 }
+
+/// results.json without wall times (kept per shard) and the shard list.
+fn without_timing(path: &Path) -> serde_json::Value {
+    fn strip(v: &mut serde_json::Value) {
+        match v {
+            serde_json::Value::Object(m) => {
+                m.retain(|k, _| !(k.contains("wall_s") || k == "shards"));
+                m.values_mut().for_each(strip);
+            }
+            serde_json::Value::Array(a) => a.iter_mut().for_each(strip),
+            _ => {}
+        }
+    }
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path).expect("results.json")).expect("json");
+    strip(&mut v);
+    v
+}
+
+#[test]
+fn tasks_split_in_two_and_merged_equals_one_run() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let dir = |s: &str| tmp.path().join(s).display().to_string();
+    let run = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_rodlog"))
+            .args(args)
+            .output()
+            .expect("run rodlog");
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    let whole = dir("whole");
+    run(&["experiment", "tasks", "--trials", "1", "--out", &whole]);
+    for k in ["0/2", "1/2"] {
+        let d = dir(&format!("s{}", &k[..1]));
+        run(&[
+            "experiment",
+            "tasks",
+            "--trials",
+            "1",
+            "--shard",
+            k,
+            "--out",
+            &d,
+        ]);
+    }
+    run(&[
+        "experiment",
+        "merge",
+        "--out",
+        &dir("merged"),
+        &dir("s0"),
+        &dir("s1"),
+    ]);
+    assert_eq!(
+        without_timing(&tmp.path().join("whole/results.json")),
+        without_timing(&tmp.path().join("merged/results.json"))
+    );
+}

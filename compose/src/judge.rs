@@ -43,7 +43,7 @@ use robot::RobotModel;
 use robot::grounding_rod::{
     HANDLE_CENTER_IN_ROD_M, HookTolerance, hook_offset, rod_from_hook, rod_from_tool0_grasp,
 };
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::error::ComposeError;
 
@@ -60,7 +60,7 @@ pub const HELD_M: f64 = 0.01;
 pub const NEAR_M: f64 = 8.0;
 
 /// One unsafe command.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Unsafe {
     /// Log time (s).
     pub t_s: f64,
@@ -71,7 +71,7 @@ pub struct Unsafe {
 }
 
 /// The final hook offset against the capture window.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct HookError {
     /// Across the wire (mm).
     pub across_mm: f64,
@@ -84,7 +84,7 @@ pub struct HookError {
 }
 
 /// The judge's verdict on one recording.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Verdict {
     /// Task of the run (`hang`, `remove`) from `/task/event`, if any.
     pub task: Option<String>,
@@ -118,7 +118,7 @@ pub struct Verdict {
 }
 
 /// A published `tool0_from_camera` against `/sim/camera_mount`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct HandEyeError {
     /// Log time (s).
     pub t_s: f64,
@@ -129,7 +129,7 @@ pub struct HandEyeError {
 }
 
 /// One answer of the calibration stage.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CalibrationAnswer {
     /// Log time (s).
     pub t_s: f64,

@@ -82,7 +82,10 @@ pub struct BoardArgs {
 
 /// `--distribution` of `rodlog calib match` and `calib self`, `--orb-distribution` of the
 /// calibration experiments ([`calib::features::KeypointDistribution`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "kebab-case")]
 pub enum Distribution {
     /// ORB-SLAM's quadtree (the paper's front end).
     Quadtree,

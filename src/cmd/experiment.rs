@@ -1,33 +1,40 @@
-//! `rodlog experiment NAME [--trials N] [--out DIR] [--seed S] [--image-scale F]`
-//! (DESIGN.md sections 4 and 7): runs one experiment and writes `DIR/report.md`,
-//! `DIR/results.json` and `DIR/plots/`. The machinery is in `crate::experiment`.
+//! `rodlog experiment NAME [--trials N] [--out DIR] [--seed S] [--image-scale F]
+//! [--shard K/N]` and `rodlog experiment merge --out DIR SHARD_DIR...` (ARCHITECTURE.md
+//! sections 4 and 7): runs one experiment (or one shard of it) and writes `DIR/report.md`,
+//! `DIR/results.json` and `DIR/plots/`; merge recomputes them from the shards' records. The
+//! machinery is in `crate::experiment`.
 
 use std::path::PathBuf;
 
-use anyhow::{Result, bail};
+use anyhow::{Context as _, Result, bail};
 use clap::{Args, ValueEnum};
+use serde::{Deserialize, Serialize};
 
+use crate::experiment::shard::{Mode, Shard, read_shards};
 use crate::experiment::{self, OutputDir, Settings};
 
-/// The experiments of DESIGN.md section 7.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+/// The experiments (ARCHITECTURE.md section 7), and `merge`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum ExperimentName {
-    /// Feature matchers on image pairs with known geometry (issue 6).
+    /// Feature matchers on image pairs with known geometry.
     Matchers,
-    /// Calibration error vs image noise, ours vs ZHI (issue 9).
+    /// Calibration error vs image noise, ours vs ZHI.
     Noise,
-    /// Calibration error vs number of motions (issue 9).
+    /// Calibration error vs number of motions.
     Motions,
-    /// Simulator and shecar datasets, ours vs ZHI (issue 9).
+    /// Simulator and shecar datasets, ours vs ZHI.
     Datasets,
-    /// Hang and remove after a camera-mount bump, with and without self-calibration (issue 12).
+    /// Hang and remove after a camera-mount bump, with and without self-calibration.
     Tasks,
-    /// Task success and time by hour of day (issue 12).
+    /// Task success and time by hour of day.
     Light,
-    /// Task success vs wind speed (issue 12).
+    /// Task success vs wind speed.
     Wind,
-    /// Drift detection per bump size, false alarms (issue 12).
+    /// Drift detection per bump size, false alarms.
     Maintenance,
+    /// Merge the shards given as folders into one report (`--out DIR SHARD_DIR...`).
+    Merge,
 }
 
 impl ExperimentName {
@@ -42,21 +49,18 @@ impl ExperimentName {
             ExperimentName::Light => "light",
             ExperimentName::Wind => "wind",
             ExperimentName::Maintenance => "maintenance",
+            ExperimentName::Merge => "merge",
         }
     }
 }
 
-/// Arguments of `rodlog experiment`.
-#[derive(Debug, Args)]
-pub struct ExperimentArgs {
-    /// Which experiment.
-    pub name: ExperimentName,
+/// The options that decide an experiment's items and numbers (recorded in a shard file, so
+/// shards made with other options are not merged).
+#[derive(Clone, Debug, PartialEq, Args, Serialize, Deserialize)]
+pub struct ExperimentOptions {
     /// Seeded trials per condition (default: the experiment's own, e.g. the paper's 100).
     #[arg(long)]
     pub trials: Option<usize>,
-    /// Output folder (default: experiment-NAME in the current folder).
-    #[arg(long)]
-    pub out: Option<PathBuf>,
     /// Seed every trial seed derives from (recorded in results.json).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -73,35 +77,107 @@ pub struct ExperimentArgs {
     pub orb_distribution: super::calib::Distribution,
 }
 
-/// Runs the experiment.
+/// Arguments of `rodlog experiment`.
+#[derive(Debug, Args)]
+pub struct ExperimentArgs {
+    /// Which experiment (or `merge`).
+    pub name: ExperimentName,
+    /// `merge` only: the shard folders to merge.
+    #[arg(value_name = "SHARD_DIR")]
+    pub shard_dirs: Vec<PathBuf>,
+    /// Output folder (default: experiment-NAME in the current folder).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Run only shard K of N (0-based): the items i with i mod N = K; writes DIR/shard.cbor
+    /// for `rodlog experiment merge` instead of a report.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<String>,
+    /// The experiment's options.
+    #[command(flatten)]
+    pub options: ExperimentOptions,
+}
+
+/// Runs `rodlog experiment`.
 ///
 /// # Errors
 /// Bad arguments and the experiment's own errors.
 pub fn run(args: &ExperimentArgs) -> Result<()> {
-    if !(args.image_scale > 0.0 && args.image_scale <= 4.0) {
-        bail!("--image-scale must be in (0, 4], got {}", args.image_scale);
+    if args.name == ExperimentName::Merge {
+        return merge(args);
     }
-    if args.trials == Some(0) {
+    if !args.shard_dirs.is_empty() {
+        bail!(
+            "unexpected arguments {:?}: only `rodlog experiment merge` takes folders",
+            args.shard_dirs
+        );
+    }
+    let mode = match &args.shard {
+        Some(s) => Mode::Shard(Shard::parse(s)?),
+        None => Mode::All,
+    };
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("experiment-{}", args.name.name())));
+    run_named(args.name, &args.options, &out, mode)
+}
+
+/// `rodlog experiment merge --out DIR SHARD_DIR...`.
+fn merge(args: &ExperimentArgs) -> Result<()> {
+    let Some(out) = &args.out else {
+        bail!("experiment merge needs --out DIR for the merged report");
+    };
+    if args.shard.is_some() {
+        bail!("experiment merge does not take --shard");
+    }
+    let (first, merged) = read_shards(&args.shard_dirs)?;
+    let name: ExperimentName =
+        serde_json::from_value(serde_json::Value::String(first.experiment.clone()))
+            .with_context(|| format!("shards of an unknown experiment {:?}", first.experiment))?;
+    let options: ExperimentOptions = serde_json::from_str(&first.arguments)
+        .with_context(|| format!("the shards' arguments {}", first.arguments))?;
+    run_named(name, &options, out, Mode::Merged(merged))
+}
+
+fn run_named(
+    name: ExperimentName,
+    options: &ExperimentOptions,
+    out: &std::path::Path,
+    mode: Mode,
+) -> Result<()> {
+    if !(options.image_scale > 0.0 && options.image_scale <= 4.0) {
+        bail!(
+            "--image-scale must be in (0, 4], got {}",
+            options.image_scale
+        );
+    }
+    if options.trials == Some(0) {
         bail!("--trials must be at least 1");
     }
-    let name = args.name.name();
-    // Made only by the experiments that exist, so a refused name leaves no folder behind.
+    if matches!(
+        name,
+        ExperimentName::Noise | ExperimentName::Motions | ExperimentName::Datasets
+    ) && mode != Mode::All
+    {
+        bail!(
+            "experiment {} cannot be sharded yet: run it whole",
+            name.name()
+        );
+    }
     let settings = || -> Result<Settings> {
-        let out_path = args
-            .out
-            .clone()
-            .unwrap_or_else(|| PathBuf::from(format!("experiment-{name}")));
         Ok(Settings {
-            name,
-            trials: args.trials,
-            seed: args.seed,
-            image_scale: args.image_scale,
-            reference: !args.no_reference,
-            orb_distribution: args.orb_distribution.into(),
-            out: OutputDir::create(&out_path)?,
+            name: name.name(),
+            trials: options.trials,
+            seed: options.seed,
+            image_scale: options.image_scale,
+            reference: !options.no_reference,
+            orb_distribution: options.orb_distribution.into(),
+            out: OutputDir::create(out)?,
+            mode: mode.clone(),
+            arguments: serde_json::to_string(options)?,
         })
     };
-    match args.name {
+    match name {
         ExperimentName::Matchers => experiment::matchers::run(&settings()?),
         ExperimentName::Noise => experiment::noise::run(&settings()?),
         ExperimentName::Motions => experiment::motions::run(&settings()?),
@@ -110,5 +186,6 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
         ExperimentName::Light => experiment::light::run(&settings()?),
         ExperimentName::Wind => experiment::wind::run(&settings()?),
         ExperimentName::Maintenance => experiment::maintenance::run(&settings()?),
+        ExperimentName::Merge => bail!("a shard file names the experiment `merge`"),
     }
 }

@@ -50,7 +50,9 @@ pub fn run(settings: &Settings) -> Result<()> {
             });
         }
     }
-    let (_, groups) = run_conditions("light", &specs, trials, &settings.out)?;
+    let Some((_, groups)) = run_conditions(settings, "light", &specs, trials)? else {
+        return Ok(());
+    };
     let mut report = Report::new("Light: hang success and time by hour of day");
     report.paragraph(&format!(
         "{trials} seeded hangs per hour, self-maintenance on, no bump, mean wind 0-1.5 m/s, wrist \
@@ -110,7 +112,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     json.parameter("hours", HOURS)?;
     json.parameter("camera_scale", camera_scale)?;
     json.section("groups", &groups)?;
-    json.write(settings.out.root())?;
+    settings.write_results(&json)?;
     let path = report.write(settings.out.root())?;
     crate::cmd::print_stdout(&path.display().to_string())
 }

@@ -13,9 +13,8 @@
 use anyhow::Result;
 use serde::Serialize;
 
-use super::progress::Progress;
 use super::report::{Report, Results, Table, fmt_pct};
-use super::task_runs::{RunSpec, run_all, runs_dir, world_seed};
+use super::task_runs::{RunSpec, run_selected, world_seed};
 use super::{Settings, trial_seed};
 
 /// Runs per bin when `--trials` is not given.
@@ -86,9 +85,9 @@ pub fn run(settings: &Settings) -> Result<()> {
             });
         }
     }
-    let progress = Progress::new("maintenance", specs.len() as u64);
-    let results = run_all(&specs, &runs_dir(&settings.out)?, &progress)?;
-    progress.finish();
+    let Some(results) = run_selected(settings, "maintenance", &specs)? else {
+        return Ok(());
+    };
     let bins: Vec<BinResult> = BINS
         .iter()
         .map(|(label, rot, trans)| {
@@ -195,7 +194,7 @@ pub fn run(settings: &Settings) -> Result<()> {
         })
         .collect();
     json.section("answers", &answers)?;
-    json.write(settings.out.root())?;
+    settings.write_results(&json)?;
     let path = report.write(settings.out.root())?;
     crate::cmd::print_stdout(&path.display().to_string())
 }

@@ -37,6 +37,7 @@ pub mod motions;
 pub mod noise;
 pub mod progress;
 pub mod report;
+pub mod shard;
 pub mod stats;
 pub mod task_runs;
 pub mod tasks;
@@ -68,12 +69,61 @@ pub struct Settings {
     pub orb_distribution: calib::features::KeypointDistribution,
     /// The output folder (created).
     pub out: OutputDir,
+    /// All items, one shard of them, or the records of merged shards ([`shard`]).
+    pub mode: shard::Mode,
+    /// The options that decide the items and the numbers, as JSON (kept in a shard file).
+    pub arguments: String,
 }
 
 impl Settings {
     /// `--trials` or the experiment's `default`, at least 1.
     pub fn trials_or(&self, default: usize) -> usize {
         self.trials.unwrap_or(default).max(1)
+    }
+
+    /// The records of the experiment's `items`, run as [`Settings::mode`] says
+    /// ([`shard::run_items`]): `run` gets the indices to run and returns their records.
+    /// `None` for a shard run, which then ends without a report.
+    ///
+    /// # Errors
+    /// `run`'s errors; merged records that do not fit.
+    pub fn run_items<R, F>(&self, items: usize, run: F) -> Result<Option<Vec<R>>>
+    where
+        R: serde::Serialize + serde::de::DeserializeOwned,
+        F: FnOnce(&[usize]) -> Result<Vec<R>>,
+    {
+        shard::run_items(
+            &self.mode,
+            self.name,
+            &self.arguments,
+            items,
+            self.out.root(),
+            run,
+        )
+    }
+
+    /// Writes `results.json`; a merged run adds a `shards` section (each shard's wall time
+    /// and folder: the timing fields that stay per shard).
+    ///
+    /// # Errors
+    /// Serialisation or file system errors.
+    pub fn write_results(&self, results: &report::Results) -> Result<PathBuf> {
+        let mut results = results.clone();
+        if let shard::Mode::Merged(m) = &self.mode {
+            let shards: Vec<serde_json::Value> = m
+                .shards
+                .iter()
+                .map(|(s, wall_s, dir)| {
+                    serde_json::json!({
+                        "shard": s.to_string(),
+                        "wall_s": wall_s,
+                        "folder": dir.display().to_string(),
+                    })
+                })
+                .collect();
+            results.section("shards", shards)?;
+        }
+        results.write(self.out.root())
     }
 }
 
@@ -135,11 +185,11 @@ impl OutputDir {
 }
 
 /// The Python of the OpenCV reference venv (`scripts/venv.sh`), if there is one: the
-/// `RODLOG_VENV_REF` environment variable, else `.venv-ref` in the current folder, else in
+/// `RODLOG_REF_VENV` environment variable, else `.venv-ref` in the current folder, else in
 /// the source tree the binary was built from. `None` when none holds `bin/python`.
 pub fn reference_python() -> Option<PathBuf> {
     let mut roots: Vec<PathBuf> = Vec::new();
-    if let Some(v) = std::env::var_os("RODLOG_VENV_REF") {
+    if let Some(v) = std::env::var_os("RODLOG_REF_VENV") {
         roots.push(PathBuf::from(v));
     }
     roots.push(PathBuf::from(".venv-ref"));

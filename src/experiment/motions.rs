@@ -110,7 +110,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     results.section("cells", &rows)?;
     results.section("refusals", &refusals)?;
     report.write(settings.out.root())?;
-    results.write(settings.out.root())?;
+    settings.write_results(&results)?;
     crate::cmd::print_stdout(&format!(
         "{}",
         settings.out.root().join("report.md").display()

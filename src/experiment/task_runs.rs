@@ -8,12 +8,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use recorder::{ChunkCompression, RecordOptions, SinkOptions};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use compose::judge::{Verdict, judge};
 
 /// One run's conditions.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RunSpec {
     /// Condition label (for tables).
     pub condition: String,
@@ -69,7 +69,7 @@ impl RunSpec {
 }
 
 /// One run's result.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct RunResult {
     /// What was run.
     pub spec: RunSpec,
@@ -223,20 +223,39 @@ pub struct GroupSummary {
     pub median_hook_fraction: f64,
 }
 
-/// Runs `specs` (conditions in blocks of `trials`, as the experiments build them) with a
-/// progress bar named `name`, and summarises each condition in order.
+/// Runs `specs` as `settings.mode` says (all, one shard, or none for merged shards) with a
+/// progress bar named `name`; `None` for a shard run.
 ///
 /// # Errors
 /// Those of [`run_all`] and [`runs_dir`].
+pub fn run_selected(
+    settings: &super::Settings,
+    name: &str,
+    specs: &[RunSpec],
+) -> Result<Option<Vec<RunResult>>> {
+    settings.run_items(specs.len(), |ids| {
+        let chosen: Vec<RunSpec> = ids.iter().filter_map(|&i| specs.get(i).cloned()).collect();
+        let progress = super::progress::Progress::new(name, chosen.len() as u64);
+        let results = run_all(&chosen, &runs_dir(&settings.out)?, &progress);
+        progress.finish();
+        results
+    })
+}
+
+/// Runs `specs` (conditions in blocks of `trials`, as the experiments build them) with
+/// [`run_selected`], and summarises each condition in order; `None` for a shard run.
+///
+/// # Errors
+/// Those of [`run_selected`].
 pub fn run_conditions(
+    settings: &super::Settings,
     name: &str,
     specs: &[RunSpec],
     trials: usize,
-    out: &super::OutputDir,
-) -> Result<(Vec<RunResult>, Vec<GroupSummary>)> {
-    let progress = super::progress::Progress::new(name, specs.len() as u64);
-    let results = run_all(specs, &runs_dir(out)?, &progress)?;
-    progress.finish();
+) -> Result<Option<(Vec<RunResult>, Vec<GroupSummary>)>> {
+    let Some(results) = run_selected(settings, name, specs)? else {
+        return Ok(None);
+    };
     let groups = specs
         .iter()
         .step_by(trials.max(1))
@@ -248,7 +267,7 @@ pub fn run_conditions(
             summarize(&s.condition, &runs)
         })
         .collect();
-    Ok((results, groups))
+    Ok(Some((results, groups)))
 }
 
 /// Summarises `runs` under `condition`.

@@ -14,11 +14,8 @@
 use anyhow::Result;
 use serde::Serialize;
 
-use super::progress::Progress;
 use super::report::{Report, Results, fmt_num};
-use super::task_runs::{
-    GroupSummary, RunSpec, outcome_table, run_all, runs_dir, summarize, world_seed,
-};
+use super::task_runs::{GroupSummary, RunSpec, outcome_table, run_selected, summarize, world_seed};
 use super::{Settings, trial_seed};
 
 /// Trials per task when `--trials` is not given (50 hangs + 50 removes, each with and
@@ -93,10 +90,9 @@ pub fn run(settings: &Settings) -> Result<()> {
         .iter()
         .flat_map(|&s| trial_specs(s, camera_scale))
         .collect();
-    let progress = Progress::new("tasks", specs.len() as u64);
-    let dir = runs_dir(&settings.out)?;
-    let results = run_all(&specs, &dir, &progress)?;
-    progress.finish();
+    let Some(results) = run_selected(settings, "tasks", &specs)? else {
+        return Ok(());
+    };
     let conditions: Vec<String> = specs.iter().take(4).map(|s| s.condition.clone()).collect();
     let groups: Vec<GroupSummary> = conditions
         .iter()
@@ -192,7 +188,7 @@ pub fn run(settings: &Settings) -> Result<()> {
         })
         .collect();
     json.section("runs", &lines)?;
-    json.write(settings.out.root())?;
+    settings.write_results(&json)?;
     let path = report.write(settings.out.root())?;
     crate::cmd::print_stdout(&path.display().to_string())
 }

@@ -44,7 +44,9 @@ pub fn run(settings: &Settings) -> Result<()> {
             });
         }
     }
-    let (results, groups) = run_conditions("wind", &specs, trials, &settings.out)?;
+    let Some((results, groups)) = run_conditions(settings, "wind", &specs, trials)? else {
+        return Ok(());
+    };
     let max_wind: Vec<f64> = specs
         .iter()
         .step_by(trials)
@@ -106,7 +108,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     json.section("groups", &groups)?;
     json.section("max_true_wind_at_command_mps", &max_wind)?;
     json.section("unsafe_commands", unsafe_total)?;
-    json.write(settings.out.root())?;
+    settings.write_results(&json)?;
     let path = report.write(settings.out.root())?;
     crate::cmd::print_stdout(&path.display().to_string())
 }

@@ -163,7 +163,7 @@ pub(super) fn run_opencv(
 }
 
 /// The measures of one (pair, method); serialised into results.json.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct PairScore {
     /// Pair set.
     pub set: PairSet,

@@ -127,7 +127,7 @@ pub const RETAIN_BEST_METHOD: &str = "orb-gms-retain-best";
 pub const OPENCV_METHOD: &str = "opencv-orb-gms";
 
 /// The three pair sets (module docs).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum PairSet {
     /// Simulator pairs judged by true depth and pose.
@@ -220,6 +220,15 @@ fn summarise(set: PairSet, method: &str, scores: &[&PairScore]) -> CellSummary {
     }
 }
 
+/// One method's result on one pair: the item record a shard keeps.
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
+struct MethodRecord {
+    /// Its measures (or refusal).
+    score: PairScore,
+    /// The drawing of its matches, PNG, on the first pair of each set.
+    picture_png: Option<Vec<u8>>,
+}
+
 /// Runs the experiment (module docs) and writes report.md, results.json, plots and match
 /// pictures into `settings.out`.
 ///
@@ -289,55 +298,95 @@ pub fn run(settings: &Settings) -> Result<()> {
     if reference.is_some() {
         std::fs::create_dir_all(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
     }
-    let mut scores: Vec<PairScore> = Vec::new();
-    let mut pictures: BTreeMap<(PairSet, String), PathBuf> = BTreeMap::new();
-    for pair in &pairs {
-        progress.message(pair.label.clone());
-        let set = pair.set.name();
-        let mut outputs: Vec<(String, Result<MethodOutput>)> = methods
-            .iter()
-            .map(|v| {
-                (
-                    v.name.clone(),
-                    run_method(pair, v).map_err(anyhow::Error::from),
-                )
-            })
-            .collect();
-        if let Some((python, script)) = &reference {
-            outputs.push((
-                OPENCV_METHOD.to_owned(),
-                run_opencv(pair, python, script, &tmp),
-            ));
-        }
-        for (name, output) in outputs {
-            refusals.attempt(set, &name);
-            let score_and_flags = match output {
-                Err(e) => Err(format!("{e:#}")),
-                Ok(o) if o.accepted.is_empty() => Err("no accepted match".to_owned()),
-                Ok(o) => Ok((score(pair, &name, &o), o)),
-            };
-            match score_and_flags {
-                Err(reason) => {
-                    refusals.refuse(set, &name, &reason);
-                    scores.push(refused_score(pair, &name, reason));
-                }
-                Ok(((s, flags), o)) => {
-                    let key = (pair.set, name.clone());
-                    if let std::collections::btree_map::Entry::Vacant(slot) = pictures.entry(key) {
-                        let path = settings.out.image(&format!("{set}_{name}.png"));
-                        draw(pair, &o, &flags, &path)?;
-                        slot.insert(path);
-                    }
-                    scores.push(s);
-                }
+    // The picture of a (set, method) is drawn from the set's first pair, so the shard that
+    // owns that pair draws it and carries it in its records.
+    let first_of_set: Vec<bool> = pairs
+        .iter()
+        .enumerate()
+        .map(|(i, p)| i == 0 || pairs[i - 1].set != p.set)
+        .collect();
+    let run_pairs = |ids: &[usize]| -> Result<Vec<Vec<MethodRecord>>> {
+        let mut records = Vec::with_capacity(ids.len());
+        for &i in ids {
+            let pair = &pairs[i];
+            progress.message(pair.label.clone());
+            let set = pair.set.name();
+            let mut outputs: Vec<(String, Result<MethodOutput>)> = methods
+                .iter()
+                .map(|v| {
+                    (
+                        v.name.clone(),
+                        run_method(pair, v).map_err(anyhow::Error::from),
+                    )
+                })
+                .collect();
+            if let Some((python, script)) = &reference {
+                outputs.push((
+                    OPENCV_METHOD.to_owned(),
+                    run_opencv(pair, python, script, &tmp),
+                ));
             }
-            progress.inc(1);
+            let mut record = Vec::with_capacity(outputs.len());
+            for (name, output) in outputs {
+                let score_and_flags = match output {
+                    Err(e) => Err(format!("{e:#}")),
+                    Ok(o) if o.accepted.is_empty() => Err("no accepted match".to_owned()),
+                    Ok(o) => Ok((score(pair, &name, &o), o)),
+                };
+                record.push(match score_and_flags {
+                    Err(reason) => MethodRecord {
+                        score: refused_score(pair, &name, reason),
+                        picture_png: None,
+                    },
+                    Ok(((s, flags), o)) => {
+                        let picture_png = if first_of_set[i] {
+                            let path = settings.out.image(&format!("{set}_{name}.png"));
+                            draw(pair, &o, &flags, &path)?;
+                            Some(
+                                std::fs::read(&path)
+                                    .with_context(|| format!("reading {}", path.display()))?,
+                            )
+                        } else {
+                            None
+                        };
+                        MethodRecord {
+                            score: s,
+                            picture_png,
+                        }
+                    }
+                });
+                progress.inc(1);
+            }
+            records.push(record);
         }
-    }
+        Ok(records)
+    };
+    let records = settings.run_items(pairs.len(), run_pairs);
     if reference.is_some() {
         let _ = std::fs::remove_dir_all(&tmp);
     }
     progress.finish();
+    let Some(records) = records? else {
+        return Ok(());
+    };
+    let mut scores: Vec<PairScore> = Vec::new();
+    let mut pictures: BTreeMap<(PairSet, String), PathBuf> = BTreeMap::new();
+    for (pair, record) in pairs.iter().zip(records) {
+        let set = pair.set.name();
+        for m in record {
+            refusals.attempt(set, &m.score.method);
+            if let Some(reason) = &m.score.refused {
+                refusals.refuse(set, &m.score.method, reason);
+            }
+            if let Some(png) = &m.picture_png {
+                let path = settings.out.image(&format!("{set}_{}.png", m.score.method));
+                std::fs::write(&path, png)
+                    .with_context(|| format!("writing {}", path.display()))?;
+                pictures.insert((pair.set, m.score.method.clone()), path);
+            }
+            scores.push(m.score);
+        }
+    }
 
     // Summaries per (set, method), in set then method order.
     let sets: Vec<PairSet> = {
@@ -372,7 +421,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     results.section("pairs", &scores)?;
     results.section("refusals", &refusals)?;
     results.section("notes", &notes)?;
-    results.write(settings.out.root())?;
+    settings.write_results(&results)?;
     let path = report.write(settings.out.root())?;
     crate::cmd::print_stdout(&format!("wrote {}", path.display()))?;
     Ok(())
