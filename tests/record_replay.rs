@@ -359,3 +359,35 @@ fn closed_loop_what_if_re_records_from_the_recordings_metadata() -> TestResult {
     assert_ne!(arm(&rec)?, arm(&dir.path().join("cl.mcap"))?);
     Ok(())
 }
+
+#[test]
+fn replay_checks_a_folder_of_recordings_and_its_shards() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let fleet = dir.path().join("fleet");
+    std::fs::create_dir_all(&fleet)?;
+    let committed = Path::new(env!("CARGO_MANIFEST_DIR")).join("recordings/arm_sweep.mcap");
+    for name in ["a.mcap", "b.mcap", "c.mcap"] {
+        std::fs::copy(&committed, fleet.join(name))?;
+    }
+    let out = ok(dir.path(), &["replay", "fleet", "--check"])?;
+    assert!(out.contains("all 3 recordings passed"), "{out}");
+    // Shard 1 of 2 takes b only (path order a, b, c).
+    let out = ok(
+        dir.path(),
+        &["replay", "fleet", "--check", "--shard", "1/2"],
+    )?;
+    assert!(
+        out.contains("b.mcap") && !out.contains("a.mcap") && !out.contains("recordings passed"),
+        "{out}"
+    );
+    // An unreadable recording fails, the others still run.
+    std::fs::write(fleet.join("d.mcap"), b"not an mcap")?;
+    let r = rodlog(dir.path(), &["replay", "fleet", "--check"])?;
+    assert_eq!(r.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        err.contains("1 of 4 recordings failed") && err.contains("d.mcap"),
+        "{err}"
+    );
+    Ok(())
+}

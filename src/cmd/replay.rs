@@ -1,5 +1,11 @@
-//! `rodlog replay REC [--check] [--config F] [--set k=v]... [--out OUT] [--start S] [--end S]
-//! [--topics T,..]`: feed a recording's inputs through the current pipeline again.
+//! `rodlog replay REC... [--check] [--shard K/N] [--config F] [--set k=v]... [--out OUT]
+//! [--start S] [--end S] [--topics T,..]`: feed a recording's inputs through the current
+//! pipeline again.
+//!
+//! Several recordings (files, or folders of `.mcap` files) are replayed one after the other,
+//! in path order; `--shard K/N` takes the recordings `i` with `i mod N = K` of that order (a
+//! fleet's recordings checked on many machines). With several, a failure of one is reported
+//! and the others still run; the exit status fails when any failed.
 //!
 //! Parameters: the recording's `scenario` metadata, then `--config`, then `--set`.
 //! `--check` compares the regenerated outputs with the recorded ones byte for byte, prints how
@@ -19,8 +25,12 @@ use scenario::{PARAM_PREFIX, SCENARIO_RECORD};
 /// Arguments of `rodlog replay`.
 #[derive(Debug, clap::Args)]
 pub struct ReplayArgs {
-    /// The recording (MCAP).
-    pub rec: PathBuf,
+    /// The recordings (MCAP files, or folders of them).
+    #[arg(required = true, value_name = "REC")]
+    pub recs: Vec<PathBuf>,
+    /// Replay only shard K of N (0-based) of the recordings, in path order.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<String>,
     /// Compare regenerated outputs with the recorded ones; exit 1 on divergence or when
     /// there is nothing to compare.
     #[arg(long)]
@@ -59,14 +69,79 @@ fn parameter_file(path: &std::path::Path) -> anyhow::Result<scenario::Params> {
     })
 }
 
+/// The recordings named by `paths`: files as given, folders expanded to their `.mcap` files;
+/// sorted, without duplicates.
+fn recordings(paths: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
+    let mut out = BTreeSet::new();
+    for p in paths {
+        if p.is_dir() {
+            for entry in
+                std::fs::read_dir(p).with_context(|| format!("cannot list {}", p.display()))?
+            {
+                let path = entry?.path();
+                if path.extension().is_some_and(|e| e == "mcap") {
+                    out.insert(path);
+                }
+            }
+        } else {
+            out.insert(p.clone());
+        }
+    }
+    Ok(out.into_iter().collect())
+}
+
 /// Runs `rodlog replay`.
 pub fn run(args: &ReplayArgs) -> anyhow::Result<()> {
+    let mut recs = recordings(&args.recs)?;
+    if let Some(s) = &args.shard {
+        let shard = crate::experiment::shard::Shard::parse(s)?;
+        recs = recs
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| shard.owns(*i))
+            .map(|(_, r)| r)
+            .collect();
+    }
+    match recs.as_slice() {
+        [] => bail!("no recordings to replay (an empty folder, or an empty shard)"),
+        [one] if args.recs.len() == 1 && args.recs[0] == *one => replay_one(one, args),
+        [one] => {
+            super::print_stdout(&format!("== {}", one.display()))?;
+            replay_one(one, args)
+        }
+        many => {
+            if args.out.is_some() {
+                bail!("--out writes one what-if file: give one recording");
+            }
+            let mut failed = Vec::new();
+            for rec in many {
+                super::print_stdout(&format!("== {}", rec.display()))?;
+                if let Err(e) = replay_one(rec, args) {
+                    eprintln!("rodlog: error: {}: {e:#}", rec.display());
+                    failed.push(rec.display().to_string());
+                }
+            }
+            if !failed.is_empty() {
+                bail!(
+                    "{} of {} recordings failed: {}",
+                    failed.len(),
+                    many.len(),
+                    failed.join(", ")
+                );
+            }
+            super::print_stdout(&format!("all {} recordings passed", many.len()))
+        }
+    }
+}
+
+/// Replays one recording (module docs).
+fn replay_one(rec: &std::path::Path, args: &ReplayArgs) -> anyhow::Result<()> {
     let config = args
         .config
         .as_ref()
         .map(|path| parameter_file(path))
         .transpose()?;
-    let setup = compose::ReplaySetup::new(&args.rec, config.as_ref(), &args.set)?;
+    let setup = compose::ReplaySetup::new(rec, config.as_ref(), &args.set)?;
     for m in &setup.migrated {
         eprintln!("rodlog: note: {m}");
     }
@@ -81,8 +156,8 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<()> {
     let changed_text = setup.changed_parameters();
     let params = &setup.plan.scenario().params;
     let stages = setup.plan.pipeline()?;
-    let mut reader = McapReader::open(&args.rec)
-        .with_context(|| format!("cannot read {}", args.rec.display()))?;
+    let mut reader =
+        McapReader::open(rec).with_context(|| format!("cannot read {}", rec.display()))?;
     let options = ReplayOptions {
         start_s: args.start,
         end_s: args.end,
@@ -126,11 +201,11 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<()> {
             if let Some(f) = fanout {
                 let _finished = f.finish();
             }
-            return Err(e).context(format!("replaying {}", args.rec.display()));
+            return Err(e).context(format!("replaying {}", rec.display()));
         }
     };
     if let Some(mut f) = fanout {
-        let source = args.rec.display().to_string();
+        let source = rec.display().to_string();
         f.write_metadata(&whatif::metadata(&report, &source, &changed_text))?;
         f.finish()?;
     }
@@ -147,7 +222,7 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<()> {
         if compared == 0 {
             bail!(
                 "replay --check: nothing to compare in {} (output channels of this pipeline found: {}; regenerated outputs: {})",
-                args.rec.display(),
+                rec.display(),
                 report.output_channels.len(),
                 report.regenerated
             );
