@@ -69,6 +69,7 @@
 //! | `judging` | verdicts: calibration answers, the panoramic fix, the wire estimate, handle fits, clamp contact, grasp coupling |
 //! | `flow` | what a step is (`StepDef`: name, plan, finish), where it leads (`Next`), and the table of steps of each task kind |
 //! | `steps` | one module per step |
+//! | `tests` | message-level tests: a rig that answers the commands; one test per step and per refusal |
 //!
 //! The wire's perception (panoramic fix, look pose, captures, hanging point) is the
 //! [`crate::stages::wire_flow`] component that the `perceive` stage drives too.
@@ -77,7 +78,8 @@
 //! Write `steps/<name>.rs` with its `NAME` and a `STEP: StepDef` (the event name, `plan`
 //! queueing actions from `action`'s constructors, `finish` returning where the flow goes
 //! next, or `flow::next_in_flow` when the step has no verdict), declare it in `steps/mod.rs`,
-//! and put it in its task's table in `flow` (`PREPARE`, `HANG`, `REMOVE`, `CHECK`).
+//! and put it in its task's table in `flow` (`PREPARE`, `HANG`, `REMOVE`, `CHECK`). A test
+//! beside the others in `tests/steps.rs` drives it through the rig.
 
 mod action;
 mod config;
@@ -88,6 +90,8 @@ mod memory;
 mod outputs;
 mod planning;
 mod steps;
+#[cfg(test)]
+mod tests;
 
 use msgs::geometry_msgs::PoseStamped;
 use msgs::nav_msgs::Path;

@@ -374,3 +374,175 @@ impl WireFlow {
 pub fn time_ns(t: &Time) -> u64 {
     u64::try_from(t.sec).unwrap_or(0) * 1_000_000_000 + u64::from(t.nanosec)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::perception::synthetic::{NoiseModel, WireScene, render_wire_rgb, wrist_rays};
+    use crate::tasks::site::SiteMap;
+    use msgs::builtin_interfaces::Time;
+
+    const STAMP_NS: u64 = 2_000_000_000;
+
+    /// The default bay's working spot: odometry and the panoramic mast in a buffer, and the
+    /// panoramic camera (640x360, ~115 deg).
+    fn at_the_spot(site: &SiteMap) -> (TfBuffer, PinholeCamera) {
+        let model = robot::RobotModel::nominal();
+        let mut tf = TfBuffer::default();
+        let inserted = tf
+            .insert(MAP, BASE_LINK, STAMP_NS, site.work_spot.isometry())
+            .and_then(|()| {
+                tf.insert_static(
+                    BASE_LINK,
+                    PANORAMIC_OPTICAL_FRAME,
+                    model.base_from_panoramic_optical,
+                )
+            });
+        assert_eq!(inserted, Ok(()));
+        let camera = PinholeCamera {
+            width: 640,
+            height: 360,
+            fx: 260.0,
+            fy: 260.0,
+            cx: 319.5,
+            cy: 179.5,
+            distortion: [-0.12, 0.01, 0.0, 0.0, 0.0],
+        };
+        (tf, camera)
+    }
+
+    fn frame(
+        site: &SiteMap,
+        camera: &PinholeCamera,
+        wire: Option<(Point3<f64>, Vector3<f64>)>,
+    ) -> Image {
+        let model = robot::RobotModel::nominal();
+        let map_from_camera = site.work_spot.isometry() * model.base_from_panoramic_optical;
+        Image {
+            header: Header {
+                stamp: Time { sec: 2, nanosec: 0 },
+                frame_id: PANORAMIC_OPTICAL_FRAME.to_owned(),
+            },
+            height: camera.height,
+            width: camera.width,
+            encoding: "rgb8".to_owned(),
+            is_bigendian: 0,
+            step: camera.width * 3,
+            data: render_wire_rgb(camera, &map_from_camera, wire, WIRE_RADIUS_M),
+        }
+    }
+
+    #[test]
+    fn the_panoramic_fix_moves_the_prior_onto_the_seen_wire() {
+        let site = SiteMap::default_bay();
+        let (tf, camera) = at_the_spot(&site);
+        // The wire is 6 cm lower than the survey says.
+        let truth = (
+            site.wire.point - Vector3::new(0.0, 0.0, 0.06),
+            site.wire.direction,
+        );
+        let mut flow = WireFlow::new(WireFlowParams::default());
+        let image = frame(&site, &camera, Some(truth));
+        let outcome = flow.fix_from_panoramic(&tf, Some(&camera), Some(&image));
+        let PanoramicOutcome::Fixed(found) = outcome else {
+            panic!("{outcome:?}");
+        };
+        let Some((point, direction)) = flow.fix_in_map() else {
+            panic!("no fix");
+        };
+        assert_eq!((point, direction), (found.point, found.direction));
+        // The true wire lies in the plane through the camera and the seen line (the part of
+        // the prior's error along the viewing rays cannot be seen, and stays).
+        let a = truth.1.normalize();
+        for s in [-1.0, 0.0, 1.0] {
+            let off = found
+                .plane_normal
+                .dot(&(truth.0 + a * s - found.camera_centre));
+            assert!(off.abs() < 0.01, "the true wire is {off} m off the plane");
+        }
+        assert!(found.correction_m > 0.005, "{found:?}");
+        assert!(direction.normalize().dot(&a).abs() > 0.999);
+        // The prior in base_link is the fix from now on.
+        let base_from_map = site.work_spot.isometry().inverse();
+        let (p, _) = flow.prior_in_base(&base_from_map);
+        assert!((p - base_from_map * point).norm() < 1e-12);
+    }
+
+    #[test]
+    fn frames_without_the_wire_are_retried_then_given_up() {
+        let site = SiteMap::default_bay();
+        let (tf, camera) = at_the_spot(&site);
+        let mut flow = WireFlow::new(WireFlowParams {
+            panoramic_attempts: 3,
+            ..WireFlowParams::default()
+        });
+        let image = frame(&site, &camera, None);
+        for attempt in 1..=2 {
+            let outcome = flow.fix_from_panoramic(&tf, Some(&camera), Some(&image));
+            assert!(
+                matches!(&outcome, PanoramicOutcome::Retry { attempt: a, .. } if *a == attempt),
+                "{outcome:?}"
+            );
+        }
+        // No camera info counts as a frame tried too.
+        let outcome = flow.fix_from_panoramic(&tf, None, Some(&image));
+        let PanoramicOutcome::GaveUp { attempts, reason } = outcome else {
+            panic!("{outcome:?}");
+        };
+        assert_eq!(attempts, 3);
+        assert_eq!(reason, "no /panoramic/camera_info");
+        assert_eq!(flow.fix_in_map(), None);
+        // Without a fix the prior is the site map's.
+        let (p, _) = flow.prior_in_base(&Isometry3::identity());
+        assert_eq!(p, site.wire.point);
+    }
+
+    #[test]
+    fn captures_of_the_wire_fuse_into_the_hanging_point_and_a_capture_without_it_is_refused()
+    -> Result<(), PerceptionError> {
+        let rays = wrist_rays()?;
+        let camera = PinholeCamera::wrist_nominal();
+        let scene = WireScene::random(11);
+        let prior = (scene.wire.centre, scene.wire.direction);
+        let mut flow = WireFlow::new(WireFlowParams::default());
+        for seed in [1, 2] {
+            let capture = WristCapture {
+                depth: scene.render(&rays, &NoiseModel::default(), seed),
+                colour: None,
+                base_from_camera: Isometry3::identity(),
+                stamp: Time::default(),
+            };
+            let observed = flow.observe(&capture, &camera, &rays, &Isometry3::identity(), &prior);
+            assert_eq!(observed, Ok(()));
+        }
+        // A capture of an empty scene: no wire, not kept.
+        let empty = WristCapture {
+            depth: crate::perception::synthetic::render_depth(
+                &crate::perception::synthetic::Scene::default(),
+                &rays,
+                &NoiseModel::default(),
+                &mut crate::perception::rng::SplitMix64::new(3),
+            ),
+            colour: None,
+            base_from_camera: Isometry3::identity(),
+            stamp: Time::default(),
+        };
+        assert!(
+            flow.observe(&empty, &camera, &rays, &Isometry3::identity(), &prior)
+                .is_err()
+        );
+        assert_eq!(flow.observations().len(), 2);
+        let estimate = flow.estimate(&scene.wire.centre, &Point3::new(0.0, 0.0, -1.0))?;
+        let d = estimate.hanging.point - scene.wire.centre;
+        let a = scene.wire.direction;
+        let off = (d - a * d.dot(&a)).norm();
+        assert!(off < 0.002, "hanging point {off} m off the axis");
+        assert!(flow.roi_cloud(Time::default()).width > 0);
+        flow.clear_observations();
+        assert!(matches!(
+            flow.estimate(&scene.wire.centre, &Point3::origin()),
+            Err(PerceptionError::NoCaptures)
+        ));
+        Ok(())
+    }
+}

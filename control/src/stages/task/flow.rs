@@ -233,4 +233,10 @@ impl Flow {
             .iter()
             .position(|e| e.step.name == name && e.phase == phase)
     }
+
+    /// Every entry, in order.
+    #[cfg(test)]
+    pub fn entries(&self) -> &[Entry] {
+        &self.entries
+    }
 }
