@@ -1,6 +1,6 @@
 //! Seeded synthetic depth captures for tests and benches: a wire (finite cylinder), a
 //! background plane and boxes, ray-cast through the same [`RayTable`] the point cloud uses,
-//! with the wrist camera's error model (DESIGN.md s6):
+//! with the wrist camera's error model (the wrist RGB-D camera's datasheet figures):
 //!
 //! - depth noise `σ_z = NOISE_AT_HALF_METRE (z / 0.5 m)²` (0.1 mm at 0.5 m, growing with z²);
 //! - holes at grazing angles: no depth where the angle between the viewing ray and the surface
@@ -11,11 +11,20 @@
 //! Because the depth image stores z and the rays are `(x_n, y_n, 1)`, the ray parameter of a
 //! hit is its depth. Not a physical simulator (no sun wash-out, no multipath): that is the
 //! `sim` crate's job; this is ground truth for the geometry.
+//!
+//! [`render_wire_rgb`] draws a panoramic frame: a sky gradient and a dark straight wire of
+//! known radius, antialiased, through a distorted pinhole camera.
 
 use super::WIRE_RADIUS_M;
 use super::point_cloud::{DepthImage, PinholeCamera, RayTable};
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use rng::SplitMix64;
+
+/// Luminance of the wire in [`render_wire_rgb`] (of 255).
+pub const WIRE_LUMA: f64 = 40.0;
+/// Luminance of the sky at the top of the image in [`render_wire_rgb`] (of 255); it darkens
+/// by 40 levels towards the bottom.
+pub const SKY_LUMA: f64 = 200.0;
 
 /// Depth noise 1-σ at 0.5 m (m).
 pub const NOISE_AT_HALF_METRE_M: f64 = 0.0001;
@@ -276,4 +285,49 @@ pub fn unit_vector(rng: &mut rng::SplitMix64) -> nalgebra::Vector3<f64> {
             return v / n;
         }
     }
+}
+
+/// An `rgb8` frame of `camera` at `world_from_camera`: a sky gradient ([`SKY_LUMA`] at the top,
+/// 40 levels darker at the bottom, slightly blue) and, when `wire` is given as `(point,
+/// direction)` in the world frame, a straight wire of `radius_m` in [`WIRE_LUMA`] (2x2
+/// samples per pixel; only in front of the camera).
+#[must_use]
+pub fn render_wire_rgb(
+    camera: &PinholeCamera,
+    world_from_camera: &Isometry3<f64>,
+    wire: Option<(Point3<f64>, Vector3<f64>)>,
+    radius_m: f64,
+) -> Vec<u8> {
+    let (w, h) = (camera.width as usize, camera.height as usize);
+    let mut data = vec![0u8; w * h * 3];
+    let origin = world_from_camera.translation.vector;
+    for v in 0..h {
+        for u in 0..w {
+            let mut cover = 0.0;
+            if let Some((point, direction)) = wire {
+                let axis = direction.normalize();
+                for (su, sv) in [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)] {
+                    let (x, y) = camera.undistort_pixel(u as f64 - 0.5 + su, v as f64 - 0.5 + sv);
+                    let ray = world_from_camera.rotation * Vector3::new(x, y, 1.0);
+                    let normal = ray.cross(&axis);
+                    let Some(n) = normal.try_normalize(1e-12) else {
+                        continue;
+                    };
+                    let to_wire = point.coords - origin;
+                    // The ray's point nearest the wire must lie in front of the camera.
+                    let along = to_wire.cross(&axis).dot(&normal) / normal.norm();
+                    if to_wire.dot(&n).abs() <= radius_m && along > 0.0 {
+                        cover += 0.25;
+                    }
+                }
+            }
+            let sky = SKY_LUMA - 40.0 * v as f64 / h as f64;
+            let value = sky * (1.0 - cover) + WIRE_LUMA * cover;
+            let i = (v * w + u) * 3;
+            if let Some(px) = data.get_mut(i..i + 3) {
+                px.copy_from_slice(&[(value * 0.9) as u8, (value * 0.95) as u8, value as u8]);
+            }
+        }
+    }
+    data
 }

@@ -1,25 +1,27 @@
 //! The `perceive` stage: the wire-perception flow of the hang task up to the hanging point,
-//! as a deterministic stage over the message stream.
+//! as a deterministic stage over the message stream. It drives the
+//! [`crate::stages::wire_flow`] component (the task stage's hang drives the same one) with
+//! its own timing and motion:
 //!
-//! 1. **Panoramic fix.** On the first `/panoramic/image_raw` at or after `panoramic_at`,
-//!    [`panoramic::find_wire_region`] with the site map's prior of the target conductor
-//!    ([`PerceiveConfig::prior_in_map`]); the panoramic camera pose is `map -> base_link`
-//!    (odometry on `/tf`) times `base_link -> panoramic_optical_frame` (`/tf_static`) at the
-//!    image stamp. A refusal is logged on `/rosout` (WARN) and the next frame is tried, up to
-//!    [`PerceiveConfig::panoramic_attempts`] frames.
+//! 1. **Panoramic fix.** On the first `/panoramic/image_raw` at or after `panoramic_at` (once
+//!    `/panoramic/camera_info` came), [`WireFlow::fix_from_panoramic`] with the site map's
+//!    prior of the target conductor ([`PerceiveConfig::prior_in_map`]). A refusal is logged
+//!    on `/rosout` (WARN) and the next frame is tried, up to
+//!    [`PerceiveConfig::panoramic_attempts`] frames (then ERROR).
 //! 2. **Look.** On the first `/clock` at or after `look_at` with a fix: the corrected prior in
-//!    `base_link`, the wrist camera's look pose ([`panoramic::look_pose`], standoff
-//!    [`PerceiveConfig::standoff_m`], from the arm base), the tool0 goal
+//!    `base_link`, the wrist camera's look pose ([`LookPolicy::TowardsArmBase`], standoff
+//!    [`PerceiveConfig::standoff_m`], from the arm base at the current lift), the tool0 goal
 //!    `base_from_camera * camera_from_tool0` (the camera edge from `/tf` when a calibration
 //!    stage sends it, else the configured nominal mount), and a checked plan
-//!    ([`planner::plan_to_tool0`]) published on `/arm/joint_trajectory` and
-//!    `/arm/planned_path`. An unreachable or colliding look pose is refused on `/rosout`.
+//!    ([`planner::plan_to_tool0`], the robot's body as the only obstacle) published on
+//!    `/arm/joint_trajectory` and `/arm/planned_path`. An unreachable or colliding look pose
+//!    is refused on `/rosout`.
 //! 3. **Captures.** When the measured arm is within [`ARRIVED_RAD`] of the goal and at rest,
-//!    `/camera/trigger`; on each `/camera/depth/image_raw`: `base_from_camera` at its stamp,
-//!    the ROI around the prior, [`wire::detect_wire`], confirmed in the colour image of the
-//!    same stamp ([`WireObservation::confirm_in_colour`]); the next trigger until
-//!    [`PerceiveConfig::captures`] captures.
-//! 4. **Estimate.** [`wire::estimate_wire`] over the captures (in `base_link`):
+//!    `/camera/trigger`; on each `/camera/depth/image_raw`: `base_from_camera` at its stamp
+//!    (`/tf`, no fallback to a later pose), [`WireFlow::observe`] around the fix, confirmed in
+//!    the colour image of the same stamp; a capture without the wire is a `/rosout` WARN; the
+//!    next trigger until [`PerceiveConfig::captures`] captures.
+//! 4. **Estimate.** [`WireFlow::estimate`] over the captures (in `base_link`):
 //!    `/perception/roi_cloud` (the inliers, `base_link`), `/perception/target_pose` (the
 //!    hanging point: origin on the axis, x along the wire, z against the approach normal) and
 //!    a `/rosout` INFO line with the confidence and its limiting factor; or a `/rosout` WARN
@@ -29,7 +31,7 @@
 //! no randomness beyond its seeded RANSACs, so a replay reproduces it byte for byte.
 
 use msgs::builtin_interfaces::Time;
-use msgs::frames::{BASE_LINK, CAMERA_COLOR_OPTICAL_FRAME, MAP, PANORAMIC_OPTICAL_FRAME, TOOL0};
+use msgs::frames::{BASE_LINK, CAMERA_COLOR_OPTICAL_FRAME, MAP, TOOL0};
 use msgs::geometry_msgs::PoseStamped;
 use msgs::nav_msgs::Path;
 use msgs::rcl_interfaces::Log;
@@ -42,19 +44,21 @@ use msgs::topics::{
 };
 use msgs::trajectory_msgs::JointTrajectory;
 use msgs::{Msg, RobotDuration, RobotTime, RosMessage, Stage, StageError};
-use nalgebra::{Isometry3, Point3, Vector3};
+use nalgebra::{Isometry3, Point3};
 use robot::{ArmIk, IkSettings, JointKind, RobotModel, TfBuffer};
 
 use crate::motion::collision::{ArmCollisionModel, CollisionWorld};
 use crate::motion::planner;
 use crate::motion::trajectory::DEFAULT_DT_NS;
+use crate::perception::PerceptionError;
 use crate::perception::colour::PendingColour;
 use crate::perception::confidence::ConfidenceThresholds;
-use crate::perception::panoramic::{self, PanoramicParams, RgbView, WirePrior};
-use crate::perception::point_cloud::{DepthImage, PinholeCamera, RayTable, to_point_cloud2};
-use crate::perception::roi::PixelRoi;
-use crate::perception::wire::{self, WireObservation, WireParams};
-use crate::perception::{PerceptionError, WIRE_RADIUS_M};
+use crate::perception::panoramic::{PanoramicParams, WirePrior};
+use crate::perception::point_cloud::{DepthImage, PinholeCamera, RayTable};
+use crate::perception::wire::{self, WireParams};
+use crate::stages::wire_flow::{
+    LookPolicy, PanoramicOutcome, WireFlow, WireFlowParams, WristCapture, time_ns,
+};
 
 /// Stage name (channel metadata `producer=perceive`).
 pub const STAGE_NAME: &str = "perceive";
@@ -152,9 +156,29 @@ impl PerceiveConfig {
     }
 }
 
+impl PerceiveConfig {
+    /// The wire-perception flow's settings: the prior, the panoramic finder and its
+    /// attempts, the look towards the arm base at [`Self::standoff_m`], the ROI, the wire
+    /// detection and the confidence thresholds.
+    #[must_use]
+    pub fn wire_flow_params(&self) -> WireFlowParams {
+        WireFlowParams {
+            prior_in_map: self.prior_in_map,
+            panoramic: self.panoramic,
+            panoramic_attempts: self.panoramic_attempts,
+            look: LookPolicy::TowardsArmBase,
+            standoff_m: self.standoff_m,
+            roi_half_length_m: self.roi_half_length_m,
+            roi_margin_m: self.roi_margin_m,
+            wire: self.wire,
+            thresholds: self.thresholds,
+        }
+    }
+}
+
 #[derive(Debug, Clone, PartialEq)]
 enum Phase {
-    Panoramic { attempts: usize },
+    Panoramic,
     Look,
     Moving { goal: [f64; 6] },
     Capturing,
@@ -170,11 +194,10 @@ pub struct PerceiveStage {
     tf: TfBuffer,
     panoramic_camera: Option<PinholeCamera>,
     wrist_camera: Option<(PinholeCamera, RayTable)>,
-    fix_in_map: Option<(Point3<f64>, Vector3<f64>)>,
+    flow: WireFlow,
     q: Option<([f64; 6], bool)>,
     lift_m: f64,
     phase: Phase,
-    observations: Vec<(WireObservation, Isometry3<f64>)>,
     colour: PendingColour,
     captures_seen: usize,
 }
@@ -198,17 +221,16 @@ impl PerceiveStage {
             ..ArmCollisionModel::nominal()
         };
         Ok(Self {
+            flow: WireFlow::new(config.wire_flow_params()),
             config,
             collision,
             ik,
             tf: TfBuffer::default(),
             panoramic_camera: None,
             wrist_camera: None,
-            fix_in_map: None,
             q: None,
             lift_m: 0.0,
-            phase: Phase::Panoramic { attempts: 0 },
-            observations: Vec::new(),
+            phase: Phase::Panoramic,
             colour: PendingColour::default(),
             captures_seen: 0,
         })
@@ -243,53 +265,19 @@ impl PerceiveStage {
     }
 
     fn on_panoramic(&mut self, log_time: RobotTime, image: &Image) -> Vec<(String, Msg)> {
-        let Phase::Panoramic { attempts } = self.phase else {
-            return Vec::new();
-        };
-        if log_time < self.config.panoramic_at {
+        if self.phase != Phase::Panoramic || log_time < self.config.panoramic_at {
             return Vec::new();
         }
         let Some(camera) = self.panoramic_camera.clone() else {
             return Vec::new();
         };
-        let stamp_ns = time_ns(&image.header.stamp);
-        let result = (|| -> Result<panoramic::PanoramicWire, String> {
-            let map_from_base = self
-                .base_from_map(stamp_ns)
-                .map_err(|e| format!("no map -> base_link: {e}"))?
-                .inverse();
-            let base_from_pano = self
-                .tf
-                .lookup(BASE_LINK, PANORAMIC_OPTICAL_FRAME, stamp_ns)
-                .map_err(|e| format!("no base_link -> panoramic: {e}"))?;
-            let bgr = match image.encoding.as_str() {
-                "rgb8" => false,
-                "bgr8" => true,
-                other => return Err(format!("panoramic encoding {other} (rgb8 or bgr8)")),
-            };
-            let view = RgbView::new(
-                image.width as usize,
-                image.height as usize,
-                image.step as usize,
-                &image.data,
-            )
-            .map_err(|e| e.to_string())?;
-            panoramic::find_wire_region(
-                &view,
-                &RgbView::luminance_weights(bgr),
-                &camera,
-                &(map_from_base * base_from_pano),
-                &self.config.prior_in_map,
-                &self.config.panoramic,
-            )
-            .map_err(|e| e.to_string())
-        })();
-        match result {
-            Ok(found) => {
-                self.fix_in_map = Some((found.point, found.direction));
+        let (level, text) = match self
+            .flow
+            .fix_from_panoramic(&self.tf, Some(&camera), Some(image))
+        {
+            PanoramicOutcome::Fixed(found) => {
                 self.phase = Phase::Look;
-                vec![self.log(
-                    log_time,
+                (
                     Log::INFO,
                     format!(
                         "panoramic: wire at ({:.3}, {:.3}, {:.3}) m in map, prior moved {:.3} m; {} of {} samples on the line, rms {:.2} px, contrast {:.1}",
@@ -302,33 +290,28 @@ impl PerceiveStage {
                         found.rms_px,
                         found.median_contrast
                     ),
-                )]
+                )
             }
-            Err(reason) => {
-                let attempts = attempts + 1;
-                let give_up = attempts >= self.config.panoramic_attempts.max(1);
-                self.phase = if give_up {
-                    Phase::Done
-                } else {
-                    Phase::Panoramic { attempts }
-                };
-                vec![self.log(
-                    log_time,
-                    if give_up { Log::ERROR } else { Log::WARN },
-                    format!(
-                        "panoramic refused (attempt {attempts}): {reason}{}",
-                        if give_up { "; giving up" } else { "" }
-                    ),
-                )]
+            PanoramicOutcome::Retry { attempt, reason } => (
+                Log::WARN,
+                format!("panoramic refused (attempt {attempt}): {reason}"),
+            ),
+            PanoramicOutcome::GaveUp { attempts, reason } => {
+                self.phase = Phase::Done;
+                (
+                    Log::ERROR,
+                    format!("panoramic refused (attempt {attempts}): {reason}; giving up"),
+                )
             }
-        }
+        };
+        vec![self.log(log_time, level, text)]
     }
 
     fn on_clock(&mut self, log_time: RobotTime) -> Vec<(String, Msg)> {
         if self.phase != Phase::Look || log_time < self.config.look_at {
             return Vec::new();
         }
-        let (Some((point_map, dir_map)), Some((q, _))) = (self.fix_in_map, self.q) else {
+        let (Some(_), Some((q, _))) = (self.flow.fix_in_map(), self.q) else {
             return Vec::new();
         };
         let now_ns = log_time.as_nanos();
@@ -336,16 +319,12 @@ impl PerceiveStage {
             let base_from_map = self
                 .base_from_map(now_ns)
                 .map_err(|e| format!("no map -> base_link: {e}"))?;
-            let point = base_from_map * point_map;
-            let direction = base_from_map.rotation * dir_map;
+            let prior = self.flow.prior_in_base(&base_from_map);
             let robot_point = self.config.model.base_from_arm_base(self.lift_m) * Point3::origin();
-            let base_from_camera = crate::perception::roi::wrist_look_pose(
-                &point,
-                &direction,
-                &robot_point,
-                self.config.standoff_m,
-            )
-            .map_err(|e| e.to_string())?;
+            let base_from_camera = self
+                .flow
+                .look_pose(&prior, &robot_point)
+                .map_err(|e| e.to_string())?;
             let goal = base_from_camera * self.tool0_from_camera(now_ns).inverse();
             let world = CollisionWorld::robot_body(&self.config.model, self.lift_m);
             planner::plan_to_tool0(
@@ -423,53 +402,51 @@ impl PerceiveStage {
         Vec::new()
     }
 
+    /// Looks for the wire in the capture of `image` (module docs, step 3).
+    fn observe(&mut self, image: &Image) -> Result<(), String> {
+        let Some(fix) = self.flow.fix_in_map() else {
+            return Ok(());
+        };
+        let Some((camera, rays)) = &self.wrist_camera else {
+            return Err("no /camera/color/camera_info yet".to_owned());
+        };
+        let stamp_ns = time_ns(&image.header.stamp);
+        let base_from_tool0 = self
+            .tf
+            .lookup(BASE_LINK, TOOL0, stamp_ns)
+            .map_err(|e| format!("no base_link -> tool0 at the capture: {e}"))?;
+        let base_from_camera = base_from_tool0 * self.tool0_from_camera(stamp_ns);
+        let base_from_map = self
+            .base_from_map(stamp_ns)
+            .map_err(|e| format!("no map -> base_link: {e}"))?;
+        let camera_from_map = base_from_camera.inverse() * base_from_map;
+        let depth = DepthImage::from_image(image).map_err(|e| e.to_string())?;
+        let capture = WristCapture {
+            depth,
+            colour: self.colour.take_for(stamp_ns),
+            base_from_camera,
+            stamp: image.header.stamp,
+        };
+        self.flow
+            .observe(&capture, camera, rays, &camera_from_map, &fix)
+    }
+
     fn on_depth(&mut self, log_time: RobotTime, image: &Image) -> Vec<(String, Msg)> {
         if self.phase != Phase::Capturing {
             return Vec::new();
         }
-        let Some((point_map, dir_map)) = self.fix_in_map else {
+        let Some((point_map, _)) = self.flow.fix_in_map() else {
             return Vec::new();
         };
         self.captures_seen += 1;
         let stamp_ns = time_ns(&image.header.stamp);
         let mut out = Vec::new();
-        let detected = (|| -> Result<(WireObservation, Isometry3<f64>), String> {
-            let Some((camera, rays)) = &self.wrist_camera else {
-                return Err("no /camera/color/camera_info yet".to_owned());
-            };
-            let base_from_tool0 = self
-                .tf
-                .lookup(BASE_LINK, TOOL0, stamp_ns)
-                .map_err(|e| format!("no base_link -> tool0 at the capture: {e}"))?;
-            let base_from_camera = base_from_tool0 * self.tool0_from_camera(stamp_ns);
-            let base_from_map = self
-                .base_from_map(stamp_ns)
-                .map_err(|e| format!("no map -> base_link: {e}"))?;
-            let camera_from_map = base_from_camera.inverse() * base_from_map;
-            let half = self.config.roi_half_length_m;
-            let p0 = camera_from_map * (point_map - dir_map * half);
-            let p1 = camera_from_map * (point_map + dir_map * half);
-            let depth = DepthImage::from_image(image).map_err(|e| e.to_string())?;
-            let distance = 0.5 * (p0.coords.norm() + p1.coords.norm());
-            let margin_px = self.config.roi_margin_m * camera.fx / distance.max(0.1);
-            let roi =
-                PixelRoi::around_segment(camera, &p0, &p1, margin_px, self.config.roi_margin_m)
-                    .map_err(|e| e.to_string())?;
-            let observation = wire::detect_wire(&depth, rays, camera.fx, &roi, &self.config.wire)
-                .map_err(|e| e.to_string())?;
-            let observation = match self.colour.take_for(stamp_ns) {
-                Some(colour) => observation.confirm_in_colour(&colour, camera),
-                None => observation,
-            };
-            Ok((observation, base_from_camera))
-        })();
-        match detected {
-            Ok(o) => self.observations.push(o),
-            Err(reason) => out.push(self.log(
+        if let Err(reason) = self.observe(image) {
+            out.push(self.log(
                 log_time,
                 Log::WARN,
                 format!("capture {}: no wire: {reason}", self.captures_seen),
-            )),
+            ));
         }
         if self.captures_seen < self.config.captures.max(1) {
             out.push((CAMERA_TRIGGER.to_owned(), Empty.into()));
@@ -480,29 +457,16 @@ impl PerceiveStage {
             stamp: image.header.stamp,
             frame_id: BASE_LINK.to_owned(),
         };
-        let cloud: Vec<Point3<f64>> = self
-            .observations
-            .iter()
-            .flat_map(|(o, base_from_camera)| {
-                o.inlier_points.iter().map(move |p| base_from_camera * p)
-            })
-            .collect();
         out.push((
             PERCEPTION_ROI_CLOUD.to_owned(),
-            to_point_cloud2(&cloud, header.clone()).into(),
+            self.flow.roi_cloud(image.header.stamp).into(),
         ));
         let near = self
             .base_from_map(stamp_ns)
-            .map(|t| t * point_map)
+            .map(|t| self.flow.prior_in_base(&t).0)
             .unwrap_or(point_map);
         let robot_point = self.config.model.base_from_arm_base(self.lift_m) * Point3::origin();
-        match wire::estimate_wire(
-            &self.observations,
-            &near,
-            &robot_point,
-            WIRE_RADIUS_M,
-            &self.config.thresholds,
-        ) {
+        match self.flow.estimate(&near, &robot_point) {
             Ok(est) => {
                 let h = est.hanging.point;
                 out.push((
@@ -536,10 +500,6 @@ impl PerceiveStage {
         }
         out
     }
-}
-
-fn time_ns(t: &Time) -> u64 {
-    u64::try_from(t.sec).unwrap_or(0) * 1_000_000_000 + u64::from(t.nanosec)
 }
 
 impl Stage for PerceiveStage {

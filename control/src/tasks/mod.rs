@@ -1,4 +1,4 @@
-//! The grounding-rod tasks (DESIGN.md s6): hang the rod on the wire and remove it, safely,
+//! The grounding-rod tasks: hang the rod on the wire and remove it, safely,
 //! recalibrating the wrist camera when its mount has moved. The task machines themselves are
 //! the `task` stage ([`crate::stages::task`]); this module holds what they plan with.
 //!

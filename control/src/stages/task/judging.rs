@@ -1,0 +1,594 @@
+//! Judging: the verdicts that decide where a flow goes after a step's actions are done.
+//!
+//! * **Calibration** ([`Task::judge_calibration`]): the calibration stage's answer to the
+//!   drift check (`consistent` goes on, `drifted` and `cannot_tell` recalibrate) and to the
+//!   recalibration (`accepted` goes on; otherwise `calibration_failed`, or
+//!   `calibration_unverifiable` when the check could not tell either). The check task ends
+//!   with the check's verdict.
+//! * **Wire** ([`Task::judge_wire`]): the [`crate::stages::wire_flow`] estimate over the
+//!   captures gives the hook goal; a refused estimate looks again once, then refuses
+//!   (`low_confidence`). The panoramic fix ([`Task::judge_panoramic`]) tries the next frame
+//!   until [`TaskConfig::panoramic_attempts`](super::TaskConfig::panoramic_attempts), then
+//!   refuses (`no_wire`).
+//! * **Handle** ([`Task::judge_handle`]): a fit per capture (RMS at most
+//!   [`TaskConfig::handle_max_rms_m`](super::TaskConfig::handle_max_rms_m), confirmed in
+//!   colour), centres agreeing within
+//!   [`TaskConfig::handle_max_disagreement_m`](super::TaskConfig::handle_max_disagreement_m)
+//!   (a swaying hung rod is waited out, [`MAX_SWAY_HOLDS`] holds of [`SWAY_HOLD_S`]), the
+//!   stored rod's axis within [`RACK_AXIS_TOLERANCE_RAD`] of the vertical; gives the grasp
+//!   goal.
+//! * **Contact** ([`Task::judge_clamp_closed`], [`Task::judge_grasp`]): the clamp joint's
+//!   travel says whether the jaw closed on the wire (hook) or reads the rod's jaw (grasp,
+//!   coupled); a miss backs off and looks again, up to
+//!   [`TaskConfig::attempts`](super::TaskConfig::attempts) (`hook_missed`, `grasp_missed`).
+
+use msgs::RobotDuration;
+use msgs::frames::BASE_LINK;
+use msgs::rodlog_msgs::{ClampCommand, TaskEvent};
+use msgs::std_msgs::Header;
+use msgs::topics::{PERCEPTION_ROI_CLOUD, PERCEPTION_TARGET_POSE};
+use nalgebra::{Isometry3, Point3, Vector3};
+use robot::grounding_rod::{CLAMP_TRAVEL_M, WIRE_CONTACT_TRAVEL_M};
+
+use super::Task;
+use super::action::Action;
+use super::config::TaskKind;
+use super::flow::{Next, Stop};
+use super::memory::{HandleSite, Rod};
+use super::steps::{
+    capture_handle, capture_rack, capture_wire, close_clamp, grasp_handle, grasp_rack, look_handle,
+    look_rack, look_wire, recalibrate,
+};
+use crate::perception::PerceptionError;
+use crate::perception::handle::fit_handle;
+use crate::perception::point_cloud::to_point_cloud2;
+use crate::perception::roi::{PixelRoi, extract_roi};
+use crate::perception::wire;
+use crate::stages::wire_flow::PanoramicOutcome;
+use crate::tasks::poses;
+use crate::tasks::site::TARGET_WIRE;
+
+/// A clamp stopped within this of the wire contact travel pressed on the wire (m); beyond
+/// `contact + CLAMP_CONTACT_TOLERANCE_M` it closed on nothing.
+pub const CLAMP_CONTACT_TOLERANCE_M: f64 = 1.5e-3;
+/// Holds for a swaying handle before a look counts as failed (see [`SWAY_HOLD_S`]).
+pub const MAX_SWAY_HOLDS: usize = 8;
+/// One hold for a swaying handle (s).
+pub const SWAY_HOLD_S: f64 = 1.5;
+/// The stored rod's measured handle axis may be this far off the vertical (rad): 3 deg.
+pub const RACK_AXIS_TOLERANCE_RAD: f64 = 3.0 * std::f64::consts::PI / 180.0;
+/// The handle's ROI spans the handle's length plus this at each end (m).
+const HANDLE_ROI_END_M: f64 = 0.03;
+/// The handle's ROI margin (m at the handle).
+const HANDLE_ROI_MARGIN_M: f64 = 0.05;
+/// The handle's ROI depth margin (m).
+const HANDLE_ROI_DEPTH_M: f64 = 0.1;
+
+impl Task {
+    /// The calibration stage's answer to the views of `step` (`check_calibration` or
+    /// `recalibrate`; module docs).
+    ///
+    /// # Errors
+    /// `calibration_silent`, `calibration_unverifiable`, `calibration_failed`.
+    pub fn judge_calibration(&mut self, check: bool) -> Result<Next, Stop> {
+        let Some(answer) = self.memory.calibration_answer.take() else {
+            return Err(Stop::failed(
+                "calibration_silent",
+                "the calibration stage did not answer",
+            ));
+        };
+        if self.config.kind == TaskKind::Check {
+            self.memory.done_reason = match answer.reason_code.as_str() {
+                "consistent" => "consistent",
+                "drifted" => "drifted",
+                _ => "cannot_tell",
+            };
+            self.memory.done_text = answer.text;
+            return Ok(Next::Following);
+        }
+        match (check, answer.reason_code.as_str()) {
+            (true, "consistent") => Ok(Next::After(recalibrate::NAME)),
+            (true, "drifted") => Ok(Next::Goto(recalibrate::NAME)),
+            // The check could miss a bump that matters: calibrate afresh instead, which
+            // verifies itself (the stage accepts only a consistent X).
+            (true, _) => {
+                self.memory.unverified_check = Some(answer.text);
+                Ok(Next::Goto(recalibrate::NAME))
+            }
+            (_, "accepted") => {
+                self.memory.unverified_check = None;
+                Ok(Next::After(recalibrate::NAME))
+            }
+            (_, code) if self.memory.unverified_check.is_some() => Err(Stop::refused(
+                "calibration_unverifiable",
+                format!(
+                    "the hand-eye calibration could not be checked ({}) nor redone ({code}: {}): not operating on an unverified camera; retry in better light or check the camera",
+                    self.memory.unverified_check.take().unwrap_or_default(),
+                    answer.text
+                ),
+            )),
+            (_, code) => Err(Stop::refused(
+                "calibration_failed",
+                format!(
+                    "the camera mount moved and the recalibration was not accepted ({code}: {}); recalibrate with a board",
+                    answer.text
+                ),
+            )),
+        }
+    }
+
+    /// The panoramic frame the step waited for: a fix goes on, a miss tries the next frame.
+    ///
+    /// # Errors
+    /// `no_wire` after [`TaskConfig::panoramic_attempts`](super::TaskConfig::panoramic_attempts) frames.
+    pub fn judge_panoramic(&mut self, again: &'static str) -> Result<Next, Stop> {
+        let image = self.memory.panoramic_image.take();
+        let robot = &self.robot;
+        match self.wire.fix_from_panoramic(
+            &robot.tf,
+            robot.panoramic_camera.as_ref(),
+            image.as_ref(),
+        ) {
+            PanoramicOutcome::Fixed(_) => Ok(Next::Following),
+            PanoramicOutcome::Retry { .. } => Ok(Next::Goto(again)),
+            PanoramicOutcome::GaveUp { attempts, reason } => Err(Stop::refused(
+                "no_wire",
+                format!(
+                    "the panoramic camera did not find the wire in {attempts} frames: {reason}"
+                ),
+            )),
+        }
+    }
+
+    /// The wire in the captures: `/perception/roi_cloud`, then the hook goal
+    /// (`/perception/target_pose`, an event with the estimate and its confidence) or one
+    /// more look.
+    ///
+    /// # Errors
+    /// `no_camera_info`, `no_odometry`, `bad_geometry`, `low_confidence`.
+    pub fn judge_wire(&mut self) -> Result<Next, Stop> {
+        let prior = self.planner().wire_prior_in_base()?;
+        let lift = self.robot.lift()?;
+        let Some((camera, rays)) = self.robot.wrist.clone() else {
+            return Err(Stop::failed(
+                "no_camera_info",
+                "no /camera/color/camera_info",
+            ));
+        };
+        self.wire.clear_observations();
+        let mut reasons = Vec::new();
+        for c in &self.memory.captures {
+            let camera_from_base = c.base_from_camera.inverse();
+            if let Err(e) = self
+                .wire
+                .observe(c, &camera, &rays, &camera_from_base, &prior)
+            {
+                reasons.push(e);
+            }
+        }
+        let robot_point = self.planner().arm_base_point(lift);
+        let estimate = self.wire.estimate(&prior.0, &robot_point);
+        let stamp = self
+            .memory
+            .captures
+            .last()
+            .map(|c| c.stamp)
+            .unwrap_or_default();
+        let cloud = self.wire.roi_cloud(stamp);
+        self.out.push(PERCEPTION_ROI_CLOUD, cloud.into());
+        match estimate {
+            Ok(est) => {
+                let axis = est.axis_in_base;
+                let hook = poses::hook_goal(
+                    &est.hanging.point,
+                    &axis.direction,
+                    &self.planner().arm_base_point(0.0),
+                )
+                .map_err(|e| Stop::failed("bad_geometry", e.to_string()))?;
+                self.out.push(
+                    PERCEPTION_TARGET_POSE,
+                    wire::to_pose_stamped(
+                        &hook,
+                        Header {
+                            stamp,
+                            frame_id: BASE_LINK.to_owned(),
+                        },
+                    )
+                    .into(),
+                );
+                self.event(
+                    TaskEvent::INFO,
+                    capture_wire::NAME,
+                    "",
+                    format!(
+                        "wire at ({:.4}, {:.4}, {:.4}) m in base_link from {} captures; confidence {:.3} (limited by {})",
+                        est.hanging.point.x, est.hanging.point.y, est.hanging.point.z,
+                        est.metrics.captures, est.confidence.score, est.confidence.limiting
+                    ),
+                );
+                self.memory.wire_in_base = Some((est.hanging.point, axis.direction));
+                self.memory.hook_goal = Some(hook);
+                Ok(Next::Following)
+            }
+            Err(e) => self.perception_refusal(look_wire::NAME, &e, &reasons),
+        }
+    }
+
+    /// One more look (at `again`) after a refused estimate; then refuse.
+    ///
+    /// # Errors
+    /// `low_confidence` after [`TaskConfig::attempts`](super::TaskConfig::attempts).
+    pub fn perception_refusal(
+        &mut self,
+        again: &'static str,
+        e: &PerceptionError,
+        reasons: &[String],
+    ) -> Result<Next, Stop> {
+        self.memory.attempts += 1;
+        let text = if reasons.is_empty() {
+            e.to_string()
+        } else {
+            format!("{e} ({})", reasons.join("; "))
+        };
+        if self.memory.attempts < self.config.attempts.max(1) {
+            self.event(
+                TaskEvent::INFO,
+                again,
+                "retry",
+                format!("perception refused, looking again: {text}"),
+            );
+            Ok(Next::Goto(again))
+        } else {
+            Err(Stop::refused(
+                "low_confidence",
+                format!("perception refused {} times: {text}", self.memory.attempts),
+            ))
+        }
+    }
+
+    /// Fits the handle in the captures (`site`: the rack's stored rod or the hung rod):
+    /// `/perception/roi_cloud`, then the grasp goal (`/perception/target_pose`, an event with
+    /// the estimate), a hold for a swaying rod, or one more look.
+    ///
+    /// # Errors
+    /// `no_camera_info`, `no_odometry`, `bad_geometry`, `low_confidence`.
+    pub fn judge_handle(&mut self, site: HandleSite) -> Result<Next, Stop> {
+        let (centre_prior, axis_prior) = self.planner().handle_prior_in_base(site)?;
+        let (step, look_again) = match site {
+            HandleSite::Wire => (capture_handle::NAME, look_handle::NAME),
+            HandleSite::Rack => (capture_rack::NAME, look_rack::NAME),
+        };
+        let lift = self.robot.lift()?;
+        let Some((camera, rays)) = self.robot.wrist.clone() else {
+            return Err(Stop::failed(
+                "no_camera_info",
+                "no /camera/color/camera_info",
+            ));
+        };
+        let config = &self.config;
+        let robot_point = self.planner().arm_base_point(lift);
+        let half = robot::grounding_rod::HANDLE_LENGTH_M * 0.5;
+        let mut fits: Vec<(Point3<f64>, Vector3<f64>, f64)> = Vec::new();
+        let mut reasons = Vec::new();
+        let mut cloud = Vec::new();
+        for c in &self.memory.captures {
+            let camera_from_base = c.base_from_camera.inverse();
+            let a = axis_prior.normalize() * (half + HANDLE_ROI_END_M);
+            let p0 = camera_from_base * (centre_prior - a);
+            let p1 = camera_from_base * (centre_prior + a);
+            let distance = 0.5 * (p0.coords.norm() + p1.coords.norm());
+            let margin_px = HANDLE_ROI_MARGIN_M * camera.fx / distance.max(0.1);
+            let result = PixelRoi::around_segment(&camera, &p0, &p1, margin_px, HANDLE_ROI_DEPTH_M)
+                .map_err(|e| e.to_string())
+                .and_then(|roi| {
+                    let points = extract_roi(&c.depth, &rays, &roi, config.wire.stride_px);
+                    let depth = &c.depth;
+                    let normal_of = |k: usize| {
+                        let (u, v) = *points.pixels.get(k)?;
+                        depth.normal(&rays, camera.fx, u as usize, v as usize)
+                    };
+                    fit_handle(
+                        &points.points,
+                        normal_of,
+                        &config.handle,
+                        &config.wire.ransac,
+                        &(camera_from_base * robot_point),
+                    )
+                    .map_err(|e| e.to_string())
+                    .map(|h| (h, points))
+                })
+                .and_then(|(h, points)| match &c.colour {
+                    // Confirmed in the registered colour image like the wire (dusk refuses).
+                    Some(colour) => h
+                        .confirm_in_colour(&points.points, colour, &camera, &config.thresholds)
+                        .map(|_| (h, points))
+                        .map_err(|e| format!("handle {e}")),
+                    None => Ok((h, points)),
+                });
+            match result {
+                Ok((h, points)) if h.fit.rms_residual_m <= config.handle_max_rms_m => {
+                    let t = c.base_from_camera;
+                    fits.push((
+                        t * h.pose.point,
+                        t.rotation * h.pose.axis,
+                        h.fit.rms_residual_m,
+                    ));
+                    cloud.extend(
+                        h.fit
+                            .inliers
+                            .iter()
+                            .filter_map(|&k| points.points.get(k))
+                            .map(|p| t * p),
+                    );
+                }
+                Ok((h, _)) => reasons.push(format!(
+                    "handle fit rms {:.2} mm > {:.2} mm",
+                    h.fit.rms_residual_m * 1e3,
+                    config.handle_max_rms_m * 1e3
+                )),
+                Err(e) => reasons.push(e),
+            }
+        }
+        let stamp = self
+            .memory
+            .captures
+            .last()
+            .map(|c| c.stamp)
+            .unwrap_or_default();
+        self.out.push(
+            PERCEPTION_ROI_CLOUD,
+            to_point_cloud2(
+                &cloud,
+                Header {
+                    stamp,
+                    frame_id: BASE_LINK.to_owned(),
+                },
+            )
+            .into(),
+        );
+        let wanted = self.config.handle_captures.max(1);
+        let max_disagreement = self.config.handle_max_disagreement_m;
+        let disagreement = fits
+            .iter()
+            .flat_map(|a| fits.iter().map(move |b| (a.0 - b.0).norm()))
+            .fold(0.0, f64::max);
+        if fits.len() < wanted || disagreement > max_disagreement {
+            let e = PerceptionError::LowConfidence {
+                score: fits.len() as f64 / wanted as f64,
+                threshold: 1.0,
+                limiting: if disagreement > max_disagreement {
+                    "agreement_offset"
+                } else {
+                    "handle_fit"
+                },
+            };
+            let mut reasons = reasons;
+            if disagreement > max_disagreement {
+                let why = format!(
+                    "the captures' handle centres disagree by {:.1} mm > {:.1} mm",
+                    disagreement * 1e3,
+                    max_disagreement * 1e3
+                );
+                // A rod swaying with the wire: hold still and look again, a few times,
+                // before counting it as a failed look.
+                if fits.len() >= wanted && self.memory.sway_holds < MAX_SWAY_HOLDS {
+                    self.memory.sway_holds += 1;
+                    self.event(
+                        TaskEvent::INFO,
+                        look_again,
+                        "holding_for_sway",
+                        format!("{why}: the rod sways; holding {SWAY_HOLD_S} s and looking again"),
+                    );
+                    return Ok(Next::Recover {
+                        actions: vec![Action::wait(
+                            RobotDuration::from_secs_f64(SWAY_HOLD_S)
+                                .unwrap_or(RobotDuration::from_secs(2)),
+                            false,
+                            RobotDuration::from_secs(10),
+                            "hold for the sway",
+                        )],
+                        then: look_again,
+                    });
+                }
+                reasons.push(why);
+            }
+            return self.perception_refusal(look_again, &e, &reasons);
+        }
+        let n = fits.len() as f64;
+        let centre = Point3::from(fits.iter().map(|f| f.0.coords).sum::<Vector3<f64>>() / n);
+        let reference = fits.first().map_or(Vector3::z(), |f| f.1);
+        let axis = fits
+            .iter()
+            .map(|f| if f.1.dot(&reference) < 0.0 { -f.1 } else { f.1 })
+            .sum::<Vector3<f64>>()
+            .normalize();
+        let rod = match site {
+            HandleSite::Wire => {
+                let (_, wire_dir) = self.planner().wire_prior_in_base()?;
+                let rod = poses::hung_rod_from_handle(
+                    &centre,
+                    &axis,
+                    &wire_dir,
+                    &self.planner().arm_base_point(0.0),
+                )
+                .map_err(|e| Stop::failed("bad_geometry", e.to_string()))?;
+                self.memory.rod = Rod::OnWire(rod);
+                rod
+            }
+            HandleSite::Rack => {
+                // The rack holds the rod upright at its yaw: only the position is measured.
+                let tilt = axis.z.abs().clamp(-1.0, 1.0).acos();
+                if tilt > RACK_AXIS_TOLERANCE_RAD {
+                    let e = PerceptionError::LowConfidence {
+                        score: 0.0,
+                        threshold: 1.0,
+                        limiting: "handle_axis",
+                    };
+                    let why = format!(
+                        "the stored rod's handle axis is {:.1} deg off the vertical",
+                        tilt.to_degrees()
+                    );
+                    return self.perception_refusal(look_again, &e, &[why]);
+                }
+                let base_from_map = self.robot.base_from_map()?;
+                let prior = base_from_map * self.config.site.map_from_stored_rod();
+                let rod = Isometry3::from_parts(
+                    nalgebra::Translation3::from(
+                        prior.translation.vector + (centre - centre_prior),
+                    ),
+                    prior.rotation,
+                );
+                self.memory.stored_rod_seen = Some(self.robot.base_from_map()?.inverse() * rod);
+                rod
+            }
+        };
+        let grasp = poses::grasp_tool0(&rod);
+        self.memory.grasp_goal = Some(grasp);
+        self.out.push(
+            PERCEPTION_TARGET_POSE,
+            wire::to_pose_stamped(
+                &grasp,
+                Header {
+                    stamp,
+                    frame_id: BASE_LINK.to_owned(),
+                },
+            )
+            .into(),
+        );
+        self.event(
+            TaskEvent::INFO,
+            step,
+            "",
+            format!(
+                "handle at ({:.4}, {:.4}, {:.4}) m in base_link from {} captures, disagreement {:.2} mm, {:.1} mm from the prior",
+                centre.x, centre.y, centre.z, fits.len(), disagreement * 1e3,
+                (centre - centre_prior).norm() * 1e3
+            ),
+        );
+        Ok(Next::Following)
+    }
+
+    /// Whether the clamp closed on the wire: stopped at the contact travel (clamped, on to
+    /// the release) or ran on (the hook missed: open, back off across the wire, raise to the
+    /// look height and look again).
+    ///
+    /// # Errors
+    /// `hook_missed` after [`TaskConfig::attempts`](super::TaskConfig::attempts); as the
+    /// back-off's plans.
+    pub fn judge_clamp_closed(&mut self) -> Result<Next, Stop> {
+        let travel = self.robot.clamp_m.unwrap_or(0.0);
+        if (travel - WIRE_CONTACT_TRAVEL_M).abs() <= CLAMP_CONTACT_TOLERANCE_M {
+            self.event(
+                TaskEvent::INFO,
+                close_clamp::NAME,
+                "",
+                format!(
+                    "clamped: the jaw stopped on the wire at {:.1} mm",
+                    travel * 1e3
+                ),
+            );
+            return Ok(Next::Following);
+        }
+        self.memory.attempts += 1;
+        let text = format!(
+            "the clamp closed to {:.1} mm (wire contact at {:.1} mm, full travel {:.1} mm): the hook missed the wire",
+            travel * 1e3,
+            WIRE_CONTACT_TRAVEL_M * 1e3,
+            CLAMP_TRAVEL_M * 1e3
+        );
+        if self.memory.attempts >= self.config.attempts.max(1) {
+            return Err(Stop::failed(
+                "hook_missed",
+                format!("{text}; {} attempts", self.memory.attempts),
+            ));
+        }
+        // Open, back off across the wire, and look again.
+        self.event(TaskEvent::INFO, close_clamp::NAME, "retry", text);
+        let p = self.planner();
+        let (plan, q_back) = p.back_off(
+            self.config.approach_m,
+            &[("rod_head", TARGET_WIRE)],
+            "back off after a miss",
+        )?;
+        let lift = p.lift()?;
+        let look_lift = self.memory.look_lift_m.unwrap_or(lift);
+        p.check_lift_move(&q_back, lift, look_lift)?;
+        Ok(Next::Recover {
+            actions: vec![
+                p.clamp_action(ClampCommand::OPEN, "open the clamp"),
+                p.arm_action(&plan, "back off the wire"),
+                Action::lift(lift, look_lift, "raise to look again"),
+            ],
+            then: look_wire::NAME,
+        })
+    }
+
+    /// Whether the end effector coupled the rod at `site`: the clamp joint then reads the
+    /// rod's jaw (the stored rod's open jaw; for the hung rod, its jaw on the wire; the
+    /// empty clamp was closed to full travel before the rack grasp). A miss backs off along
+    /// the tool's -z and looks again, up to [`TaskConfig::attempts`](super::TaskConfig::attempts).
+    ///
+    /// # Errors
+    /// `grasp_missed`; as the back-off's plans.
+    pub fn judge_grasp(&mut self, site: HandleSite) -> Result<Next, Stop> {
+        let (step, jaw_m, jaw, handle, look_again) = match site {
+            HandleSite::Rack => (
+                grasp_rack::NAME,
+                0.0,
+                "the stored rod's open jaw",
+                "stored_rod_handle",
+                look_rack::NAME,
+            ),
+            HandleSite::Wire => (
+                grasp_handle::NAME,
+                WIRE_CONTACT_TRAVEL_M,
+                "the rod's jaw on the wire",
+                "hung_rod_handle",
+                look_handle::NAME,
+            ),
+        };
+        if let Some(travel) = self
+            .robot
+            .clamp_m
+            .filter(|t| (t - jaw_m).abs() <= CLAMP_CONTACT_TOLERANCE_M)
+        {
+            self.event(
+                TaskEvent::INFO,
+                step,
+                "",
+                format!(
+                    "coupled: the clamp joint reads {jaw} at {:.1} mm",
+                    travel * 1e3
+                ),
+            );
+            // The hung rod stays clamped on the wire (Rod::OnWire) until it is unhooked.
+            return Ok(Next::Following);
+        }
+        self.memory.attempts += 1;
+        let reading = self.robot.clamp_m.map_or_else(
+            || "has no reading".to_owned(),
+            |t| format!("reads {:.1} mm", t * 1e3),
+        );
+        let text = format!(
+            "the clamp joint {reading} after the grasp, not {jaw} at {:.1} mm: the gripper missed the handle",
+            jaw_m * 1e3
+        );
+        if self.memory.attempts >= self.config.attempts.max(1) {
+            return Err(Stop::failed(
+                "grasp_missed",
+                format!("{text}; {} attempts", self.memory.attempts),
+            ));
+        }
+        self.event(TaskEvent::INFO, step, "retry", text);
+        let p = self.planner();
+        let (plan, _) = p.back_off(
+            self.config.pregrasp_m,
+            &[("tool", handle), ("arm_wrist3_link", handle)],
+            "back off after a missed grasp",
+        )?;
+        Ok(Next::Recover {
+            actions: vec![p.arm_action(&plan, "back off the handle")],
+            then: look_again,
+        })
+    }
+}

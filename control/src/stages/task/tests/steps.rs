@@ -1,0 +1,510 @@
+//! One test per step: what it commands and how the flow goes on.
+
+use msgs::Msg;
+use msgs::rodlog_msgs::{ClampCommand, TaskEvent};
+use msgs::topics::{
+    ARM_JOINT_TRAJECTORY, ARM_PLANNED_PATH, BASE_GOAL, CALIBRATION_COMMAND, CAMERA_TRIGGER,
+    CLAMP_COMMAND, LIFT_COMMAND, PERCEPTION_ROI_CLOUD, PERCEPTION_TARGET_POSE,
+};
+use nalgebra::{Point3, Vector3};
+
+use super::rig::Rig;
+use super::{LIMIT_S, assert_done, assert_ended, count, with_reason};
+use crate::stages::task::TaskKind;
+
+/// A hang without the self-maintenance (the calibration as it is), run to its end.
+fn quick(kind: TaskKind) -> Rig {
+    let mut rig = Rig::with(kind, |c, _| c.self_maintenance = false);
+    rig.run(LIMIT_S);
+    rig
+}
+
+/// Runs until `step` is over (the next step announced, or the end).
+fn until_after(rig: &mut Rig, step: &str) {
+    let entered = |r: &Rig| r.steps().iter().any(|s| s == step);
+    rig.run_until(LIMIT_S, entered);
+    let seen = rig.steps().len();
+    rig.run_until(LIMIT_S, |r| {
+        r.steps().len() > seen || r.stage.step() == "finished"
+    });
+}
+
+fn clamp_actions(rig: &Rig, step: &str) -> Vec<u8> {
+    rig.outputs_in_step(step, CLAMP_COMMAND)
+        .into_iter()
+        .filter_map(|m| match m {
+            Msg::ClampCommand(c) => Some(c.action),
+            _ => None,
+        })
+        .collect()
+}
+
+fn calibration_commands(rig: &Rig, step: &str) -> Vec<String> {
+    rig.outputs_in_step(step, CALIBRATION_COMMAND)
+        .into_iter()
+        .filter_map(|m| match m {
+            Msg::String(s) => Some(s.data),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The distance of `base_point` (`base_link`, the base at the working spot) from the site
+/// map's wire.
+fn distance_to_wire(base_point: &Point3<f64>) -> f64 {
+    let site = crate::tasks::site::SiteMap::default_bay();
+    let p = site.work_spot.isometry() * base_point;
+    let a = site.wire.direction.normalize();
+    let d = p - site.wire.point;
+    (d - a * d.dot(&a)).norm()
+}
+
+#[test]
+fn the_hang_runs_its_steps_in_order_and_ends_done() {
+    let rig = quick(TaskKind::Hang);
+    assert_done(&rig);
+    assert_eq!(
+        rig.steps(),
+        [
+            "begin",
+            "drive",
+            "stow",
+            "look_rack",
+            "capture_rack",
+            "grasp_rack",
+            "lift_out",
+            "raise_for_look",
+            "panoramic",
+            "look_wire",
+            "capture_wire",
+            "to_pre_approach",
+            "approach",
+            "close_clamp",
+            "release",
+            "retreat",
+        ]
+    );
+    // Every arm command comes with its planned path.
+    assert_eq!(
+        rig.outputs
+            .iter()
+            .filter(|o| o.topic == ARM_JOINT_TRAJECTORY)
+            .count(),
+        rig.outputs
+            .iter()
+            .filter(|o| o.topic == ARM_PLANNED_PATH)
+            .count()
+    );
+}
+
+#[test]
+fn begin_announces_the_start_and_goes_on_in_calm_wind() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, _| c.self_maintenance = false);
+    until_after(&mut rig, "begin");
+    let events = rig.events();
+    assert_eq!(events[0].state, "started", "{events:#?}");
+    assert!(
+        events[0].text.contains("self-maintenance off"),
+        "{events:#?}"
+    );
+    assert_eq!(events[1].state, "begin");
+    assert!(
+        events[1].text.starts_with("begin (0 actions)"),
+        "{events:#?}"
+    );
+}
+
+#[test]
+fn drive_sends_the_base_to_the_working_spot() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, _| c.self_maintenance = false);
+    until_after(&mut rig, "drive");
+    let goals = rig.outputs_in_step("drive", BASE_GOAL);
+    assert_eq!(goals.len(), 1);
+    let Msg::PoseStamped(goal) = &goals[0] else {
+        panic!("{goals:?}");
+    };
+    let spot = crate::tasks::site::SiteMap::default_bay().work_spot;
+    assert_eq!(goal.header.frame_id, "map");
+    assert!((goal.pose.position.x - spot.x_m).abs() < 1e-12);
+    assert!((goal.pose.position.y - spot.y_m).abs() < 1e-12);
+    assert_eq!(&rig.steps()[..3], ["begin", "drive", "stow"]);
+}
+
+#[test]
+fn stow_moves_nothing_already_stowed_and_lowers_a_raised_lift() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, _| c.self_maintenance = false);
+    until_after(&mut rig, "stow");
+    assert_eq!(count(&rig, "stow", ARM_JOINT_TRAJECTORY), 0);
+    assert_eq!(count(&rig, "stow", LIFT_COMMAND), 0);
+    // The retreat at the end stows the arm from where it is and lowers the lift.
+    let rig = quick(TaskKind::Hang);
+    assert_eq!(count(&rig, "retreat", ARM_JOINT_TRAJECTORY), 1);
+    let lifts = rig.outputs_in_step("retreat", LIFT_COMMAND);
+    assert!(
+        matches!(lifts.as_slice(), [Msg::Float64(f)] if f.data == 0.0),
+        "{lifts:?}"
+    );
+}
+
+#[test]
+fn check_calibration_visits_the_check_views_and_goes_past_the_recalibration_when_consistent() {
+    let mut rig = Rig::with(TaskKind::Hang, |_, _| {});
+    until_after(&mut rig, "check_calibration");
+    let views = calib::selfcal::CHECK_MOTION.len();
+    assert_eq!(
+        calibration_commands(&rig, "check_calibration"),
+        ["check", "solve"]
+    );
+    assert_eq!(count(&rig, "check_calibration", CAMERA_TRIGGER), views);
+    // The views and the way back to stow.
+    assert_eq!(
+        count(&rig, "check_calibration", ARM_JOINT_TRAJECTORY),
+        views + 1
+    );
+    // Up to the calibration height and back.
+    assert_eq!(count(&rig, "check_calibration", LIFT_COMMAND), 2);
+    assert_eq!(rig.steps().last().map(String::as_str), Some("look_rack"));
+}
+
+#[test]
+fn recalibrate_runs_the_calibration_views_on_drift_and_goes_on_when_accepted() {
+    let mut rig = Rig::with(TaskKind::Hang, |_, b| {
+        b.calibration = ["drifted", "accepted"].into();
+    });
+    until_after(&mut rig, "recalibrate");
+    let views = crate::tasks::calibration_views::ViewPattern::CALIBRATION_18
+        .camera_poses(&Point3::new(1.0, 0.0, 1.0), &Vector3::new(-1.0, 0.0, 0.0))
+        .map_or(0, |v| v.len());
+    assert_eq!(views, 18);
+    assert_eq!(
+        calibration_commands(&rig, "recalibrate"),
+        ["collect", "solve"]
+    );
+    assert_eq!(count(&rig, "recalibrate", CAMERA_TRIGGER), 18);
+    assert_eq!(
+        rig.steps(),
+        [
+            "begin",
+            "drive",
+            "stow",
+            "check_calibration",
+            "recalibrate",
+            "look_rack"
+        ]
+    );
+}
+
+#[test]
+fn look_rack_probes_the_clamp_and_points_the_camera_at_the_stored_rod() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, _| c.self_maintenance = false);
+    until_after(&mut rig, "look_rack");
+    assert_eq!(clamp_actions(&rig, "look_rack"), [ClampCommand::CLOSE]);
+    assert_eq!(count(&rig, "look_rack", ARM_JOINT_TRAJECTORY), 1);
+}
+
+#[test]
+fn capture_rack_fits_the_stored_rods_handle_and_publishes_the_grasp() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, _| c.self_maintenance = false);
+    until_after(&mut rig, "capture_rack");
+    assert_eq!(count(&rig, "capture_rack", CAMERA_TRIGGER), 2);
+    assert_eq!(count(&rig, "capture_rack", PERCEPTION_ROI_CLOUD), 1);
+    assert_eq!(count(&rig, "capture_rack", PERCEPTION_TARGET_POSE), 1);
+    let handle = rig
+        .events()
+        .into_iter()
+        .find(|e| e.state == "capture_rack" && e.text.starts_with("handle at"));
+    let Some(handle) = handle else {
+        panic!("no handle estimate: {:#?}", rig.events());
+    };
+    assert!(handle.text.contains("from 2 captures"), "{handle:?}");
+    assert_eq!(rig.steps().last().map(String::as_str), Some("grasp_rack"));
+}
+
+#[test]
+fn grasp_rack_approaches_the_handle_and_judges_the_coupling() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, _| c.self_maintenance = false);
+    until_after(&mut rig, "grasp_rack");
+    assert_eq!(count(&rig, "grasp_rack", ARM_JOINT_TRAJECTORY), 2);
+    let coupled = rig
+        .events()
+        .into_iter()
+        .any(|e| e.state == "grasp_rack" && e.text.contains("coupled"));
+    assert!(coupled, "{:#?}", rig.events());
+    assert_eq!(rig.steps().last().map(String::as_str), Some("lift_out"));
+}
+
+#[test]
+fn lift_out_lifts_the_rod_out_and_carries_it() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, _| c.self_maintenance = false);
+    until_after(&mut rig, "lift_out");
+    assert_eq!(count(&rig, "lift_out", ARM_JOINT_TRAJECTORY), 2);
+    assert_eq!(count(&rig, "lift_out", LIFT_COMMAND), 0);
+}
+
+#[test]
+fn raise_for_look_raises_the_lift_towards_the_wire() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, _| c.self_maintenance = false);
+    until_after(&mut rig, "raise_for_look");
+    let lifts = rig.outputs_in_step("raise_for_look", LIFT_COMMAND);
+    assert!(
+        matches!(lifts.as_slice(), [Msg::Float64(f)] if f.data > 0.5),
+        "{lifts:?}"
+    );
+    assert_eq!(count(&rig, "raise_for_look", ARM_JOINT_TRAJECTORY), 0);
+}
+
+#[test]
+fn panoramic_waits_for_a_frame_and_fixes_the_wire() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, _| c.self_maintenance = false);
+    until_after(&mut rig, "panoramic");
+    assert_eq!(count(&rig, "panoramic", ARM_JOINT_TRAJECTORY), 0);
+    assert_eq!(rig.steps().last().map(String::as_str), Some("look_wire"));
+}
+
+#[test]
+fn look_wire_points_the_camera_level_with_the_wire() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, _| c.self_maintenance = false);
+    until_after(&mut rig, "look_wire");
+    assert_eq!(count(&rig, "look_wire", ARM_JOINT_TRAJECTORY), 1);
+    assert_eq!(count(&rig, "look_wire", LIFT_COMMAND), 0);
+}
+
+#[test]
+fn capture_wire_fuses_three_captures_into_the_hook_goal_on_the_wire() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, _| c.self_maintenance = false);
+    until_after(&mut rig, "capture_wire");
+    assert_eq!(count(&rig, "capture_wire", CAMERA_TRIGGER), 3);
+    assert_eq!(count(&rig, "capture_wire", PERCEPTION_ROI_CLOUD), 1);
+    let estimate = rig
+        .events()
+        .into_iter()
+        .find(|e| e.state == "capture_wire" && e.text.starts_with("wire at"));
+    let Some(estimate) = estimate else {
+        panic!("no wire estimate: {:#?}", rig.events());
+    };
+    assert!(estimate.text.contains("from 3 captures"), "{estimate:?}");
+    let poses = rig.outputs_in_step("capture_wire", PERCEPTION_TARGET_POSE);
+    let [Msg::PoseStamped(hook)] = poses.as_slice() else {
+        panic!("{poses:?}");
+    };
+    // The hook goal sits on the wire, within the simulated capture's error.
+    let p = Point3::new(
+        hook.pose.position.x,
+        hook.pose.position.y,
+        hook.pose.position.z,
+    );
+    let d = distance_to_wire(&p);
+    assert!(d < 0.005, "hook goal {d} m from the wire");
+}
+
+#[test]
+fn to_pre_approach_moves_the_arm_then_lowers_to_the_hook_height() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, _| c.self_maintenance = false);
+    until_after(&mut rig, "to_pre_approach");
+    assert_eq!(count(&rig, "to_pre_approach", ARM_JOINT_TRAJECTORY), 1);
+    assert_eq!(count(&rig, "to_pre_approach", LIFT_COMMAND), 1);
+}
+
+#[test]
+fn approach_brings_the_hook_across_the_wire() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, _| c.self_maintenance = false);
+    until_after(&mut rig, "approach");
+    assert_eq!(count(&rig, "approach", ARM_JOINT_TRAJECTORY), 1);
+    assert_eq!(rig.steps().last().map(String::as_str), Some("close_clamp"));
+}
+
+#[test]
+fn close_clamp_closes_and_judges_the_contact_on_the_wire() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, _| c.self_maintenance = false);
+    until_after(&mut rig, "close_clamp");
+    assert_eq!(clamp_actions(&rig, "close_clamp"), [ClampCommand::CLOSE]);
+    let clamped = rig
+        .events()
+        .into_iter()
+        .any(|e| e.state == "close_clamp" && e.text.starts_with("clamped"));
+    assert!(clamped, "{:#?}", rig.events());
+}
+
+#[test]
+fn release_backs_off_the_hung_rod_and_retreat_stows() {
+    let rig = quick(TaskKind::Hang);
+    assert_eq!(count(&rig, "release", ARM_JOINT_TRAJECTORY), 1);
+    assert_eq!(count(&rig, "release", CLAMP_COMMAND), 0);
+    assert!(count(&rig, "retreat", ARM_JOINT_TRAJECTORY) >= 1);
+    assert_done(&rig);
+}
+
+#[test]
+fn the_remove_runs_its_steps_in_order_and_racks_the_rod() {
+    let rig = quick(TaskKind::Remove);
+    assert_done(&rig);
+    assert_eq!(
+        rig.steps(),
+        [
+            "begin",
+            "drive",
+            "stow",
+            "look_handle",
+            "capture_handle",
+            "grasp_handle",
+            "open_clamp",
+            "unhook",
+            "rack",
+            "retreat",
+        ]
+    );
+}
+
+#[test]
+fn look_handle_raises_the_lift_and_points_the_camera_at_the_hung_handle() {
+    let rig = quick(TaskKind::Remove);
+    assert_eq!(count(&rig, "look_handle", LIFT_COMMAND), 1);
+    assert_eq!(count(&rig, "look_handle", ARM_JOINT_TRAJECTORY), 1);
+}
+
+#[test]
+fn capture_handle_fits_the_hung_rods_handle() {
+    let rig = quick(TaskKind::Remove);
+    assert_eq!(count(&rig, "capture_handle", CAMERA_TRIGGER), 2);
+    assert_eq!(count(&rig, "capture_handle", PERCEPTION_TARGET_POSE), 1);
+    let handle = rig
+        .events()
+        .into_iter()
+        .any(|e| e.state == "capture_handle" && e.text.starts_with("handle at"));
+    assert!(handle, "{:#?}", rig.events());
+}
+
+#[test]
+fn grasp_handle_approaches_and_judges_the_coupling_on_the_wire() {
+    let rig = quick(TaskKind::Remove);
+    assert!(count(&rig, "grasp_handle", ARM_JOINT_TRAJECTORY) >= 2);
+    let coupled = rig
+        .events()
+        .into_iter()
+        .any(|e| e.state == "grasp_handle" && e.text.contains("the rod's jaw on the wire"));
+    assert!(coupled, "{:#?}", rig.events());
+}
+
+#[test]
+fn open_clamp_opens_the_clamp() {
+    let rig = quick(TaskKind::Remove);
+    assert_eq!(clamp_actions(&rig, "open_clamp"), [ClampCommand::OPEN]);
+}
+
+#[test]
+fn unhook_backs_across_the_wire_and_lowers_the_rod() {
+    let rig = quick(TaskKind::Remove);
+    assert_eq!(count(&rig, "unhook", ARM_JOINT_TRAJECTORY), 1);
+    let lifts = rig.outputs_in_step("unhook", LIFT_COMMAND);
+    assert!(
+        matches!(lifts.as_slice(), [Msg::Float64(f)] if f.data == 0.0),
+        "{lifts:?}"
+    );
+}
+
+#[test]
+fn rack_puts_the_rod_in_the_rack_and_releases_it() {
+    let rig = quick(TaskKind::Remove);
+    assert_eq!(count(&rig, "rack", ARM_JOINT_TRAJECTORY), 3);
+}
+
+#[test]
+fn the_demo_hands_the_hang_over_to_the_remove() {
+    let mut rig = Rig::with(TaskKind::Demo, |c, _| c.self_maintenance = false);
+    rig.run(LIMIT_S);
+    assert_done(&rig);
+    let events = rig.events();
+    let hang_done = events
+        .iter()
+        .position(|e| e.task == "hang" && e.kind == TaskEvent::DONE);
+    let remove_started = events
+        .iter()
+        .position(|e| e.task == "remove" && e.state == "started");
+    assert!(
+        matches!((hang_done, remove_started), (Some(a), Some(b)) if b == a + 1),
+        "{events:#?}"
+    );
+    let last = &events[events.len() - 1];
+    assert_eq!(last.task, "remove");
+    let steps = rig.steps();
+    let retreat = steps.iter().position(|s| s == "retreat");
+    assert_eq!(
+        retreat.and_then(|k| steps.get(k + 1)).map(String::as_str),
+        Some("look_handle"),
+        "{steps:?}"
+    );
+}
+
+#[test]
+fn the_check_task_ends_with_the_checks_verdict() {
+    for verdict in ["consistent", "drifted", "cannot_tell"] {
+        let mut rig = Rig::with(TaskKind::Check, |_, b| b.calibration = [verdict].into());
+        rig.run(LIMIT_S);
+        let last = assert_ended(&rig, TaskEvent::DONE, verdict);
+        assert!(last.text.contains("the calibration stage says"), "{last:?}");
+        assert_eq!(
+            rig.steps(),
+            ["begin", "drive", "stow", "check_calibration", "retreat"]
+        );
+    }
+}
+
+#[test]
+fn recover_backs_off_a_missed_hook_and_looks_again() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, b| {
+        c.self_maintenance = false;
+        b.hook_hits = vec![false, true];
+    });
+    rig.run(LIMIT_S);
+    assert_done(&rig);
+    assert_eq!(with_reason(&rig, "retry").len(), 1);
+    // Open, back off the wire, raise to the look height; then the look again.
+    assert_eq!(clamp_actions(&rig, "recover"), [ClampCommand::OPEN]);
+    assert_eq!(count(&rig, "recover", ARM_JOINT_TRAJECTORY), 1);
+    assert_eq!(count(&rig, "recover", LIFT_COMMAND), 1);
+    let steps = rig.steps();
+    let k = steps.iter().position(|s| s == "recover");
+    assert_eq!(
+        k.and_then(|k| steps.get(k + 1)).map(String::as_str),
+        Some("look_wire"),
+        "{steps:?}"
+    );
+}
+
+#[test]
+fn every_flow_names_each_step_once_per_phase_and_holds_the_steps_its_verdicts_jump_to() {
+    use crate::stages::task::flow::Flow;
+    for kind in [
+        TaskKind::Hang,
+        TaskKind::Remove,
+        TaskKind::Demo,
+        TaskKind::Check,
+    ] {
+        let flow = Flow::of(kind);
+        let entries = flow.entries();
+        assert_eq!(entries.first().map(|e| e.step.name), Some("begin"));
+        assert_eq!(entries.last().map(|e| e.step.name), Some("retreat"));
+        for (k, a) in entries.iter().enumerate() {
+            for b in entries.iter().skip(k + 1) {
+                assert!(
+                    a.phase != b.phase || a.step.name != b.step.name,
+                    "{kind:?}: {} twice",
+                    a.step.name
+                );
+            }
+        }
+        let has = |name: &str, phase: TaskKind| flow.position(name, phase).is_some();
+        match kind {
+            TaskKind::Hang | TaskKind::Demo => {
+                for name in ["recalibrate", "look_rack", "panoramic", "look_wire"] {
+                    assert!(has(name, TaskKind::Hang), "{kind:?}: no {name}");
+                }
+            }
+            TaskKind::Remove => assert!(has("recalibrate", kind) && has("look_handle", kind)),
+            TaskKind::Check => assert!(!has("recalibrate", kind)),
+        }
+        if kind == TaskKind::Demo {
+            assert!(has("look_handle", TaskKind::Remove));
+        }
+    }
+}
