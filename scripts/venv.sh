@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Creates the throw-away Python venv of pinned reference tools used by tests and benchmarks
-# (DESIGN.md s8): OpenCV (hand-eye, ORB, SIFT), the Rerun viewer/CLI, and two independent
-# ROS 2 MCAP decoders, and Eclipse Cyclone DDS (the independent DDS peer of ros2/tests). Idempotent: re-running only installs what is missing.
+# (ARCHITECTURE.md section 8): OpenCV (hand-eye, ORB, SIFT), the Rerun viewer/CLI, two
+# independent ROS 2 MCAP decoders, Eclipse Cyclone DDS (the independent DDS peer of
+# ros2/tests) and Ray (the scale-out driver of scripts/ray/). Idempotent: re-running only
+# installs what is missing.
 # Usage: scripts/venv.sh [DIR]   (default .venv-ref at the repository root)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -14,5 +16,6 @@ python3 -m venv "$venv"
   "mcap==1.*" \
   "mcap-ros2-support==0.5.*" \
   "rosbags==0.10.*" \
-  "cyclonedds==11.0.1"
+  "cyclonedds==11.0.1" \
+  "ray==2.60.0"
 echo "$venv"
