@@ -8,7 +8,7 @@
 //! | `world/tf/<child>` | `/tf`, `/tf_static` | `Transform3D` with parent and child frame names; Rerun composes the tree |
 //! | `world/frames/<frame>` | first sight of a frame | `CoordinateFrame` + `TransformAxes3D` (axes of every TF frame, from then on) |
 //! | `world/robot/<link>/{boxes,cylinders,...}` | `/robot_description` or the `robot.urdf` attachment ([`crate::urdf`]) | `Boxes3D`, `Cylinders3D`, ... in the link's frame (static): `/tf` animates them |
-//! | `world/camera/wrist` (`/color`, `/depth`) | `/camera/color/camera_info`, `/camera/{color,depth}/image_raw` | `Pinhole` (parent `camera_color_optical_frame`, child `<frame>_image_plane`), `EncodedImage` (JPEG), `EncodedDepthImage` (16-bit PNG, mm) |
+//! | `world/camera/wrist` (`/color`, `/depth`) | `/camera/color/camera_info`, `/camera/{color,depth}/image_raw` | `Pinhole` (static: parent `camera_color_optical_frame`, child `<frame>_image_plane`), `EncodedImage` (JPEG), `EncodedDepthImage` (16-bit PNG, mm) |
 //! | `world/camera/panoramic` (`/color`) | `/panoramic/camera_info`, `/panoramic/image_raw` | `Pinhole`, `EncodedImage` |
 //! | `world/captures/{task,calibration}/<nnnn>` | each wrist depth capture with its colour image (calibration views: between `/calibration/command` `check`/`collect` and `solve`/`cancel`) | `Points3D` in `map` (camera pose from `/tf` at the capture), at most [`crate::encode::MAX_CAPTURE_POINTS`] |
 //! | `world/calibration/x_before`, `.../x_after` | a change of the `tool0` -> `camera_color_optical_frame` edge on `/tf` (a recalibration) | `Transform3D` under `tool0` + `Pinhole` frustum (grey: before, green: after) |
@@ -202,6 +202,8 @@ pub struct Viz {
     rod: Option<RodBelief>,
     task_state: Option<String>,
     calibration_views: bool,
+    now_ns: u64,
+    anchored: BTreeSet<String>,
     sim_rod_drawn: bool,
     sim_wire_drawn: bool,
     sim_frustum_drawn: bool,
@@ -466,6 +468,8 @@ impl Viz {
             rod: None,
             task_state: None,
             calibration_views: false,
+            now_ns: 0,
+            anchored: BTreeSet::new(),
             sim_rod_drawn: false,
             sim_wire_drawn: false,
             sim_frustum_drawn: false,
@@ -581,6 +585,7 @@ impl Viz {
         }
         let robot = urdf::robot_visuals(urdf_text)?;
         self.urdf_hash = Some(h);
+        self.log_zero_pose(&robot.joints)?;
         for link in &robot.links {
             let bodies: Vec<Part> = robot
                 .visuals
@@ -600,6 +605,41 @@ impl Viz {
                 true,
             )?;
         }
+        Ok(())
+    }
+
+    /// At t = 0, before the first `/tf` (the recording's first instant holds the drivers'
+    /// messages; `robot_state` publishes a step later), every URDF joint at position 0 on the
+    /// entity of its child's `/tf` edge, and the wrist camera's frame at `tool0`: as a ROS tool
+    /// shows a robot description before any joint state. The first `/tf` of each edge replaces
+    /// it. Without it the viewer reports the 3D view in error at t = 0 (the links' and the
+    /// camera's frames have no path to `map`).
+    fn log_zero_pose(&mut self, joints: &[urdf::Joint]) -> Result<(), VizError> {
+        let now = self.now_ns;
+        self.rec
+            .set_time(TIMELINE_LOG_TIME, TimeCell::from_duration_nanos(0));
+        self.rec.set_time_sequence(TIMELINE_FRAME, 0);
+        let mut result = Ok(());
+        let camera = (
+            msgs::frames::TOOL0.to_owned(),
+            msgs::frames::CAMERA_COLOR_OPTICAL_FRAME.to_owned(),
+            Pose::IDENTITY,
+        );
+        for (parent, child, pose) in joints
+            .iter()
+            .map(|j| (j.parent.clone(), j.child.clone(), j.origin))
+            .chain(std::iter::once(camera))
+        {
+            result = self.rec.log(
+                format!("world/tf/{}", part(&child)),
+                &transform(&parent, &child, &pose),
+            );
+            if result.is_err() {
+                break;
+            }
+        }
+        self.set_time(now);
+        result?;
         Ok(())
     }
 
@@ -706,11 +746,37 @@ impl Viz {
     }
 
     fn set_time(&mut self, log_time_ns: u64) {
+        self.now_ns = log_time_ns;
         self.last_time_ns = self.last_time_ns.max(log_time_ns);
         let ns = i64::try_from(log_time_ns).unwrap_or(i64::MAX);
         self.rec
             .set_time(TIMELINE_LOG_TIME, TimeCell::from_duration_nanos(ns));
         self.rec.set_time_sequence(TIMELINE_FRAME, self.frame);
+    }
+
+    /// Puts `entity` in `map` from t = 0 (once), for an entity of the 3D scene whose own frame
+    /// is logged only with its data, later: until then its implicit frame `tf#/<path>` has no
+    /// path to the view's `map`, and the viewer reports the whole 3D view in error ("No
+    /// transform path from tf#/world/... to the view's target frame"). The entity's data logs
+    /// its real frame ([`CoordinateFrame`], a pinhole's parent) from its first message on.
+    fn anchor(&mut self, entity: &str) -> Result<(), VizError> {
+        self.anchor_in(entity, msgs::frames::MAP)
+    }
+
+    /// [`Viz::anchor`] in `frame` (an image entity: its camera's image plane, which the
+    /// camera's static pinhole defines at all times).
+    fn anchor_in(&mut self, entity: &str, frame: &str) -> Result<(), VizError> {
+        if !self.anchored.insert(entity.to_owned()) {
+            return Ok(());
+        }
+        let now = self.now_ns;
+        self.rec
+            .set_time(TIMELINE_LOG_TIME, TimeCell::from_duration_nanos(0));
+        self.rec.set_time_sequence(TIMELINE_FRAME, 0);
+        let result = self.rec.log(entity, &CoordinateFrame::new(frame));
+        self.set_time(now);
+        result?;
+        Ok(())
     }
 
     /// Returns whether the message was drawn.
@@ -780,6 +846,7 @@ impl Viz {
                 }
                 let frame =
                     CoordinateFrame::new(frame_or(&cloud.header.frame_id, msgs::frames::BASE_LINK));
+                self.anchor(ROI_CLOUD)?;
                 self.rec.log(
                     ROI_CLOUD,
                     &[&points as &dyn AsComponents, &frame as &dyn AsComponents],
@@ -864,6 +931,7 @@ impl Viz {
                 let strips = LineStrips3D::new([pts])
                     .with_colors([ORANGE])
                     .with_radii([0.004f32]);
+                self.anchor(PLANNED)?;
                 self.rec.log(
                     PLANNED,
                     &[&strips as &dyn AsComponents, &frame as &dyn AsComponents],
@@ -990,6 +1058,7 @@ impl Viz {
                 t: target.t,
                 q: along_y(target.q),
             };
+            self.anchor(&format!("{SITE}/wire/cylinders"))?;
             log_bodies(
                 &self.rec,
                 &format!("{SITE}/wire"),
@@ -1046,13 +1115,13 @@ impl Viz {
         } else {
             format!("{CAPTURES}/task")
         };
-        self.rec.log(
-            format!("{group}/{:04}", self.stats.captures),
-            &[
-                &points as &dyn AsComponents,
-                &CoordinateFrame::new(msgs::frames::MAP),
-            ],
-        )?;
+        let entity = format!("{group}/{:04}", self.stats.captures);
+        // The frame static: before the capture's time the entity must still resolve to `map`
+        // (an entity without a frame at the cursor's time is in `tf#/<path>`, which has no
+        // path to `map`, and the whole 3D view is reported in error).
+        self.rec
+            .log_static(entity.as_str(), &CoordinateFrame::new(msgs::frames::MAP))?;
+        self.rec.log(entity, &points)?;
         Ok(())
     }
 
@@ -1076,8 +1145,10 @@ impl Viz {
             return Ok(());
         }
         self.frames_seen.insert(frame.to_owned());
+        let entity = format!("world/frames/{}", part(frame));
+        self.anchor(&entity)?;
         self.rec.log(
-            format!("world/frames/{}", part(frame)),
+            entity,
             &[
                 &CoordinateFrame::new(frame) as &dyn AsComponents,
                 &TransformAxes3D::new(FRAME_AXES_M)
@@ -1174,7 +1245,11 @@ impl Viz {
             .with_child_frame(format!("{frame}_image_plane"))
             .with_image_plane_distance(CALIBRATION_PLANE_M)
             .with_color(rerun::Color::from_rgb(colour[0], colour[1], colour[2]));
-        self.rec.log(entity, &pinhole)?;
+        self.anchor(entity)?;
+        self.rec.log(
+            entity,
+            &[&pinhole as &dyn AsComponents, &CoordinateFrame::new(frame)],
+        )?;
         Ok(())
     }
 
@@ -1202,6 +1277,7 @@ impl Viz {
     }
 
     fn log_executed(&mut self, log_time_ns: u64) -> Result<(), VizError> {
+        self.anchor(EXECUTED)?;
         let strips = LineStrips3D::new([self.executed.clone()])
             .with_colors([CYAN])
             .with_radii([0.003f32]);
@@ -1232,7 +1308,13 @@ impl Viz {
             .with_parent_frame(frame)
             .with_child_frame(format!("{frame}_image_plane"))
             .with_image_plane_distance(plane_m);
-        self.rec.log(entity, &pinhole)?;
+        // Static: the camera model is the recording's (a later camera info replaces it for
+        // all times), and its image plane then exists at all times, so the image entity below
+        // it is never without a pinhole ancestor (a view error) before the first camera info.
+        self.rec.log_static(
+            entity,
+            &[&pinhole as &dyn AsComponents, &CoordinateFrame::new(frame)],
+        )?;
         Ok(())
     }
 
@@ -1245,10 +1327,12 @@ impl Viz {
         default_frame: &str,
     ) -> Result<Pixels, VizError> {
         let px = convert::image_pixels(img)?;
-        let plane = CoordinateFrame::new(format!(
+        let plane_frame = format!(
             "{}_image_plane",
             frame_or(&img.header.frame_id, default_frame)
-        ));
+        );
+        self.anchor_in(entity, &plane_frame)?;
+        let plane = CoordinateFrame::new(plane_frame);
         match px.kind {
             PixelKind::Rgb8 | PixelKind::Mono8 => {
                 let image =
@@ -1290,8 +1374,10 @@ impl Viz {
     ) -> Result<(), VizError> {
         self.rec.log(entity, &transform(parent, frame_name, pose))?;
         let named = frame_name.starts_with("perception/") || frame_name.starts_with("calibration/");
+        let axes = format!("{entity}/axes");
+        self.anchor(&axes)?;
         self.rec.log(
-            format!("{entity}/axes"),
+            axes,
             &[
                 &CoordinateFrame::new(frame_name) as &dyn AsComponents,
                 &TransformAxes3D::new(POSE_AXES_M).with_show_frame(named),

@@ -60,6 +60,19 @@ pub struct LinkVisual {
     pub rgba: [u8; 4],
 }
 
+/// A joint of a URDF: `parent_from_child` at joint position 0 (its `<origin>`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Joint {
+    /// `<joint name>`.
+    pub name: String,
+    /// Parent link.
+    pub parent: String,
+    /// Child link.
+    pub child: String,
+    /// `parent_from_child` at position 0.
+    pub origin: Pose,
+}
+
 /// The visuals of a URDF.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct RobotVisuals {
@@ -69,6 +82,8 @@ pub struct RobotVisuals {
     pub visuals: Vec<LinkVisual>,
     /// Link names, in document order.
     pub links: Vec<String>,
+    /// Joints, in document order.
+    pub joints: Vec<Joint>,
     /// Mesh visuals not drawn.
     pub skipped_meshes: usize,
 }
@@ -153,6 +168,17 @@ pub fn robot_visuals(urdf: &str) -> Result<RobotVisuals, VizError> {
             });
         }
     }
+    for j in &robot.joints {
+        out.joints.push(Joint {
+            name: j.name.clone(),
+            parent: j.parent.link.clone(),
+            child: j.child.link.clone(),
+            origin: Pose {
+                t: j.origin.xyz.0,
+                q: quaternion_from_rpy(j.origin.rpy.0),
+            },
+        });
+    }
     Ok(out)
 }
 
@@ -203,6 +229,10 @@ mod tests {
             }
         );
         assert_eq!(c.rgba, DEFAULT_RGBA);
+        assert_eq!(r.joints.len(), 1);
+        let j = &r.joints[0];
+        assert_eq!((j.parent.as_str(), j.child.as_str()), ("base_link", "arm"));
+        assert_eq!(j.origin.t, [0.0, 0.0, 1.0]);
         // Pitch +90 deg: the cylinder's z axis lies along the link's -x... R_y(90) z = +x.
         let s = std::f64::consts::FRAC_1_SQRT_2;
         for (got, want) in c.pose.q.iter().zip([0.0, s, 0.0, s]) {
