@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # Creates the throw-away Python venv of pinned reference tools used by tests and benchmarks
-# (DESIGN.md s8): OpenCV (hand-eye, ORB, SIFT), the Rerun viewer/CLI, and two independent
-# ROS 2 MCAP decoders. Idempotent: re-running only installs what is missing.
+# (DESIGN.md s8): OpenCV (hand-eye, ORB, SIFT), the Rerun viewer/CLI, two independent
+# ROS 2 MCAP decoders, and a URDF parser with urdfdom's rules (yourdfpy: the robot's URDF
+# stays valid for ROS tools). Idempotent: re-running only installs what is missing.
+# The viewer tests run the venv's viewer headless: it needs a Vulkan rasteriser
+# (apt-get install -y mesa-vulkan-drivers; xvfb too for scripts/viewer_screenshots.py).
 # Usage: scripts/venv.sh [DIR]   (default .venv-ref at the repository root)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -13,5 +16,6 @@ python3 -m venv "$venv"
   "rerun-sdk==0.36.3" \
   "mcap==1.*" \
   "mcap-ros2-support==0.5.*" \
-  "rosbags==0.10.*"
+  "rosbags==0.10.*" \
+  "yourdfpy==0.0.60"
 echo "$venv"

@@ -180,6 +180,20 @@ pub fn site_for_world(world: &str) -> Option<Site> {
             }
         })
         .collect();
+    // The ground the planner keeps out of (its top at z = 0, a hair below the grid), opaque:
+    // what is below it (the lift's mast when the lift is low, in its well) is hidden.
+    let spot = map.work_spot;
+    fixed.push(Body {
+        name: "ground".to_owned(),
+        pose: Pose {
+            t: [spot.x_m, spot.y_m, -0.011],
+            q: [0.0, 0.0, 0.0, 1.0],
+        },
+        shape: Shape::Box {
+            half_m: [15.0, 15.0, 0.01],
+        },
+        rgba: [58, 62, 56, 255],
+    });
     for (k, (a, b)) in map.other_conductors.iter().enumerate() {
         let d = b - a;
         let rotation = UnitQuaternion::rotation_between(&Vector3::z(), &d)

@@ -1363,8 +1363,8 @@ impl Viz {
         self.log_named_pose(entity, parent, frame_name, &Pose::from_pose(&p.pose))
     }
 
-    /// `frame_name` under `parent` at `pose`, with axes (named when `frame_name` is the
-    /// perception target or the calibration's: the others would crowd the robot).
+    /// `frame_name` under `parent` at `pose`, with axes (named for the perception target only:
+    /// the calibration's and the commands' names would crowd the robot).
     fn log_named_pose(
         &mut self,
         entity: &str,
@@ -1373,7 +1373,7 @@ impl Viz {
         pose: &Pose,
     ) -> Result<(), VizError> {
         self.rec.log(entity, &transform(parent, frame_name, pose))?;
-        let named = frame_name.starts_with("perception/") || frame_name.starts_with("calibration/");
+        let named = frame_name.starts_with("perception/");
         let axes = format!("{entity}/axes");
         self.anchor(&axes)?;
         self.rec.log(
