@@ -760,12 +760,6 @@ impl Viz {
     /// transform path from tf#/world/... to the view's target frame"). The entity's data logs
     /// its real frame ([`CoordinateFrame`], a pinhole's parent) from its first message on.
     fn anchor(&mut self, entity: &str) -> Result<(), VizError> {
-        self.anchor_in(entity, msgs::frames::MAP)
-    }
-
-    /// [`Viz::anchor`] in `frame` (an image entity: its camera's image plane, which the
-    /// camera's static pinhole defines at all times).
-    fn anchor_in(&mut self, entity: &str, frame: &str) -> Result<(), VizError> {
         if !self.anchored.insert(entity.to_owned()) {
             return Ok(());
         }
@@ -773,7 +767,9 @@ impl Viz {
         self.rec
             .set_time(TIMELINE_LOG_TIME, TimeCell::from_duration_nanos(0));
         self.rec.set_time_sequence(TIMELINE_FRAME, 0);
-        let result = self.rec.log(entity, &CoordinateFrame::new(frame));
+        let result = self
+            .rec
+            .log(entity, &CoordinateFrame::new(msgs::frames::MAP));
         self.set_time(now);
         result?;
         Ok(())
@@ -1331,22 +1327,27 @@ impl Viz {
             "{}_image_plane",
             frame_or(&img.header.frame_id, default_frame)
         );
-        self.anchor_in(entity, &plane_frame)?;
-        let plane = CoordinateFrame::new(plane_frame);
+        // The image plane static (its camera's static pinhole defines it at all times): every
+        // temporal row of an encoded-image entity then holds an image. The viewer plays
+        // encoded images through its video cache, which panicked ("index out of bounds" in
+        // video_stream_cache.rs) on an entity whose chunks also held rows without one (a
+        // temporal frame-only row).
+        if self.anchored.insert(entity.to_owned()) {
+            self.rec
+                .log_static(entity, &CoordinateFrame::new(plane_frame))?;
+        }
         match px.kind {
             PixelKind::Rgb8 | PixelKind::Mono8 => {
                 let image =
                     EncodedImage::new(encode::jpeg(&px)?).with_media_type(MediaType::jpeg());
-                self.rec
-                    .log(entity, &[&image as &dyn AsComponents, &plane])?;
+                self.rec.log(entity, &image)?;
             }
             PixelKind::DepthF32M | PixelKind::DepthU16Mm => {
                 let mm = encode::depth_mm(&px)?;
                 let depth = EncodedDepthImage::new(encode::png16(&mm, px.width, px.height)?)
                     .with_media_type(MediaType::png())
                     .with_meter(1000.0f32);
-                self.rec
-                    .log(entity, &[&depth as &dyn AsComponents, &plane])?;
+                self.rec.log(entity, &depth)?;
             }
         }
         Ok(px)
