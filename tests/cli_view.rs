@@ -169,24 +169,23 @@ fn view_draws_every_topic_of_the_log_vocabulary() {
         ("/world/tf/lift_link", "Transform3D:translation"),
         ("/world/frames/tool0", "TransformAxes3D:axis_length"),
         ("/world/camera/wrist", "Pinhole:image_from_camera"),
-        ("/world/camera/wrist/color", "Image:buffer"),
+        ("/world/camera/wrist/color", "EncodedImage:blob"),
         ("/world/camera/wrist/color", "CoordinateFrame:frame"),
-        ("/world/camera/wrist/depth", "DepthImage:buffer"),
-        ("/world/camera/wrist/depth", "DepthImage:meter"),
+        ("/world/camera/wrist/depth", "EncodedDepthImage:blob"),
+        ("/world/camera/wrist/depth", "EncodedDepthImage:meter"),
         ("/world/camera/panoramic", "Pinhole:resolution"),
-        ("/world/camera/panoramic/color", "Image:buffer"),
+        ("/world/camera/panoramic/color", "EncodedImage:blob"),
         ("/world/perception/roi_cloud", "Points3D:positions"),
         ("/world/poses/target_pose", "Transform3D:child_frame"),
         (
             "/world/poses/target_pose/axes",
             "TransformAxes3D:axis_length",
         ),
-        ("/world/poses/sim_wire_pose/axes", "CoordinateFrame:frame"),
-        ("/world/poses/sim_camera_mount", "Transform3D:parent_frame"),
+        ("/world/sim/wire_pose/axes", "CoordinateFrame:frame"),
+        ("/world/sim/camera_mount", "Transform3D:parent_frame"),
         ("/world/poses/base_goal", "Transform3D:translation"),
         ("/world/trajectories/planned", "LineStrips3D:strips"),
-        ("/world/robot/rodlog", "CoordinateFrame:frame"),
-        ("/matches/image", "Image:buffer"),
+        ("/matches/image", "EncodedImage:blob"),
         ("/matches/inliers", "LineStrips2D:strips"),
         ("/matches/rejected", "LineStrips2D:strips"),
         ("/plots/wind/measured", "Scalars:scalars"),
@@ -198,6 +197,7 @@ fn view_draws_every_topic_of_the_log_vocabulary() {
         ("/plots/calibration/residual_rot_deg", "Scalars:scalars"),
         ("/plots/calibration/residual_trans_mm", "Scalars:scalars"),
         ("/plots/commands/lift_m", "Scalars:scalars"),
+        ("/events/task", "StateChange:state"),
         ("/log/rosout", "TextLog:text"),
         ("/log/task", "TextLog:level"),
         ("/log/calibration", "TextLog:text"),
@@ -214,7 +214,7 @@ fn view_draws_every_topic_of_the_log_vocabulary() {
     // One message each: one row each (the executed path: the base_link..tool0 chain is
     // incomplete in the fixture, so it is drawn only once at the end, if at all).
     for (entity, column, rows) in [
-        ("/world/camera/wrist/color", "Image:buffer", 1),
+        ("/world/camera/wrist/color", "EncodedImage:blob", 1),
         ("/world/perception/roi_cloud", "Points3D:positions", 1),
         ("/plots/joints_rad/arm_shoulder_joint", "Scalars:scalars", 1),
         // trajectory, lift, base goal, clamp, trigger, calibration command
@@ -305,18 +305,34 @@ fn view_of_the_committed_recording_has_one_row_per_sample() {
     );
     let wrist3 = tf_children.get("arm_wrist3_link").copied().unwrap_or(0);
     assert!(wrist3 > 100, "{tf_children:?}");
+    // One row per /tf edge, plus the URDF's zero pose at t = 0 (before the first /tf).
     assert_eq!(
         p.rows_of("/world/tf/arm_wrist3_link", "Transform3D:child_frame"),
-        wrist3
+        wrist3 + 1
     );
-    // The robot from the URDF (attachment and /robot_description: drawn once).
-    assert!(
-        p.columns
+    // The robot from the URDF (attachment and /robot_description: drawn once), one entity of
+    // shapes per link, in the link's frame.
+    for link in ["base_link", "lift_link", "arm_upperarm_link", "tool0"] {
+        let shapes: Vec<_> = p
+            .columns
             .keys()
-            .any(|e| e.starts_with("/world/robot/") && e.contains("visual_geometries")),
-        "no URDF geometry: {:?}",
-        p.columns.keys().collect::<Vec<_>>()
-    );
+            .filter(|e| e.starts_with(&format!("/world/robot/{link}/")))
+            .collect();
+        assert!(
+            !shapes.is_empty(),
+            "no shapes for {link}: {:?}",
+            p.columns.keys()
+        );
+        for e in shapes {
+            assert!(p.has(e, "CoordinateFrame:frame"), "{e}");
+            assert_eq!(p.rows_of(e, "CoordinateFrame:frame"), 1, "{e} drawn once");
+        }
+    }
+    assert!(p.has("/world/robot/tool0/boxes", "Boxes3D:half_sizes"));
+    assert!(p.has(
+        "/world/robot/arm_upperarm_link/cylinders",
+        "Cylinders3D:radii"
+    ));
     // The arm moved: the executed tool0 path was drawn more than once.
     assert!(p.rows_of("/world/trajectories/executed", "LineStrips3D:strips") > 2);
 }
@@ -362,4 +378,407 @@ fn view_needs_exactly_one_target() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("--out") || err.contains("-o"), "{err}");
+}
+
+/// Wrist depth images of a recording.
+fn depth_images(mcap: &Path) -> u64 {
+    let mut reader = McapReader::open(mcap).expect("open");
+    let filter = ReadFilter::all().with_topics([msgs::topics::CAMERA_DEPTH_IMAGE.to_owned()]);
+    reader.messages(&filter).filter(|m| m.is_ok()).count() as u64
+}
+
+/// The issue's post-mortem view of a hang run (issue "The 3D view shows the robot, the site
+/// and what it saw"): the robot's bodies from the URDF, the site as the robot knew it (rack,
+/// cabinet, the rod, the perceived wire), the simulator's truth in its own group, one
+/// `Points3D` entity per wrist depth capture, and a .rrd no larger than the MCAP.
+#[test]
+fn a_hang_run_shows_the_robot_the_site_and_every_capture() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let mcap = dir.path().join("hang.mcap");
+    let rrd = dir.path().join("hang.rrd");
+    rodlog(&[
+        "record",
+        "--scenario",
+        "hang",
+        "--set",
+        "task.self_maintenance=false",
+        "--set",
+        "bump.rot_deg=0",
+        "--set",
+        "bump.trans_mm=0",
+        "--out",
+        mcap.to_str().expect("utf-8"),
+        "--until-done",
+    ]);
+    let (stdout, _) = rodlog(&[
+        "view",
+        mcap.to_str().expect("utf-8"),
+        "-o",
+        rrd.to_str().expect("utf-8"),
+    ]);
+    let depth = depth_images(&mcap);
+    assert!(depth >= 3, "{depth} depth captures in the hang");
+    assert!(
+        stdout.contains(&format!("{depth} depth captures as points")),
+        "{stdout}"
+    );
+    assert!(stdout.contains(" 0 failed"), "{stdout}");
+    let (mcap_bytes, rrd_bytes) = (
+        std::fs::metadata(&mcap).expect("mcap").len(),
+        std::fs::metadata(&rrd).expect("rrd").len(),
+    );
+    assert!(
+        rrd_bytes <= mcap_bytes,
+        ".rrd {rrd_bytes} B > MCAP {mcap_bytes} B"
+    );
+    let Some(rerun) = reference_venv::venv_tool("rerun", "rerun check") else {
+        return;
+    };
+    let p = rrd_print(&rerun, &rrd);
+    let captures: Vec<&String> = p
+        .columns
+        .keys()
+        .filter(|e| {
+            e.starts_with("/world/captures/task/") || e.starts_with("/world/captures/calibration/")
+        })
+        .collect();
+    assert_eq!(captures.len() as u64, depth, "{captures:?}");
+    for e in &captures {
+        assert!(p.has(e, "Points3D:positions"), "{e}");
+        assert!(p.has(e, "Points3D:colors"), "{e} is coloured");
+        assert_eq!(p.rows_of(e, "Points3D:positions"), 1, "{e}: one capture");
+    }
+    for (entity, column) in [
+        ("/world/robot/base_link/boxes", "Boxes3D:half_sizes"),
+        ("/world/robot/lift_link/boxes", "Boxes3D:half_sizes"),
+        (
+            "/world/robot/arm_forearm_link/cylinders",
+            "Cylinders3D:lengths",
+        ),
+        ("/world/robot/tool0/boxes", "Boxes3D:half_sizes"),
+        ("/world/site/rack/boxes", "Boxes3D:half_sizes"),
+        ("/world/site/cabinet/boxes", "Boxes3D:half_sizes"),
+        ("/world/site/rod/cylinders", "Cylinders3D:lengths"),
+        ("/world/site/rod", "Transform3D:parent_frame"),
+        ("/world/site/wire/cylinders", "Cylinders3D:lengths"),
+        ("/world/sim/wire/cylinders", "Cylinders3D:lengths"),
+        ("/world/sim/rod/cylinders", "Cylinders3D:lengths"),
+        ("/world/trajectories/planned", "LineStrips3D:strips"),
+        ("/world/trajectories/executed", "LineStrips3D:strips"),
+        ("/events/task", "StateChange:state"),
+    ] {
+        assert!(p.has(entity, column), "no {entity} {column}");
+    }
+    // The rod was taken from the rack and left on the wire: its parent frame changed twice.
+    assert!(p.rows_of("/world/site/rod", "Transform3D:parent_frame") >= 3);
+}
+
+/// The URDF `robot::robot_urdf` publishes stays valid for ROS tools (yourdfpy, urdfdom's
+/// rules: one root, every joint's links, the scene graph), its forward kinematics is the
+/// robot's, and every link has shapes the viewer draws.
+#[test]
+fn the_robot_urdf_is_valid_for_ros_tools_and_every_link_is_drawn() {
+    use robot::RobotModel;
+    let model = RobotModel::nominal();
+    let urdf = robot::robot_urdf(&model);
+    let drawn = viz::urdf::robot_visuals(&urdf).expect("urdf-rs reads it");
+    assert_eq!(drawn.skipped_meshes, 0);
+    for link in &drawn.links {
+        assert!(
+            drawn.visuals.iter().any(|v| &v.link == link),
+            "link {link} has nothing to draw"
+        );
+    }
+    let Some(venv) = reference_venv::venv_dir("yourdfpy URDF check") else {
+        return;
+    };
+    let dir = tempfile::tempdir().expect("tmp");
+    let path = dir.path().join("robot.urdf");
+    std::fs::write(&path, &urdf).expect("write");
+    let lift = 1.25;
+    let q = [0.3, -0.7, 1.1, -0.4, 0.9, 2.0];
+    let mut joints = serde_json::Map::new();
+    joints.insert("lift_joint".into(), lift.into());
+    for (name, v) in msgs::frames::ARM_JOINT_NAMES.iter().zip(q) {
+        joints.insert((*name).to_owned(), v.into());
+    }
+    let out = Command::new(venv.join("bin/python"))
+        .arg(repo().join("scripts/check_urdf.py"))
+        .arg(&path)
+        .arg(serde_json::Value::Object(joints).to_string())
+        .output()
+        .expect("run python");
+    let text = String::from_utf8_lossy(&out.stdout);
+    if String::from_utf8_lossy(&out.stderr).contains("No module named 'yourdfpy'") {
+        testkit::skip(
+            "yourdfpy URDF check",
+            "the venv lacks yourdfpy (scripts/venv.sh)",
+        );
+        return;
+    }
+    assert!(
+        out.status.success(),
+        "yourdfpy refused the URDF:\n{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+    assert_eq!(v["valid"], true, "{v}");
+    assert_eq!(v["root"], "base_link");
+    assert_eq!(v["links"].as_array().map(Vec::len), Some(drawn.links.len()));
+    let actuated: Vec<&str> = v["actuated"]
+        .as_array()
+        .map(|a| a.iter().filter_map(|s| s.as_str()).collect())
+        .unwrap_or_default();
+    assert_eq!(actuated.len(), 7, "{actuated:?}");
+    for name in ["tool0", "panoramic_optical_frame", "arm_wrist3_link"] {
+        assert!(
+            v["visuals"][name].as_array().is_some_and(|s| !s.is_empty()),
+            "{name}: {}",
+            v["visuals"]
+        );
+    }
+    // Forward kinematics through the URDF's joints = the robot model's.
+    let m = &v["base_from"]["tool0"];
+    let at = |r: usize, c: usize| m[r][c].as_f64().unwrap_or(f64::NAN);
+    let expected = model.base_from_tool0(lift, &q).to_homogeneous();
+    for r in 0..3 {
+        for c in 0..4 {
+            assert!(
+                (at(r, c) - expected[(r, c)]).abs() < 1e-9,
+                "base_from_tool0[{r}][{c}] = {} vs {}",
+                at(r, c),
+                expected[(r, c)]
+            );
+        }
+    }
+}
+
+/// A free TCP port on the loopback (bound, then released).
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free port")
+}
+
+/// Waits until something listens on `port` (a viewer or server that started).
+fn wait_for_port(port: u16, what: &str) {
+    for _ in 0..600 {
+        if std::net::TcpStream::connect(("127.0.0.1", port)).is_ok() {
+            return;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    panic!("{what} did not listen on port {port} within 60 s");
+}
+
+/// Sends SIGINT to the process group `pgid` (the venv's `rerun` is a Python launcher whose
+/// child is the real binary: both are in the group) and waits up to 5 s for `pid` to end.
+fn interrupt_group(pgid: u32) {
+    let _ = Command::new("kill")
+        .args(["-INT", "--", &format!("-{pgid}")])
+        .status();
+}
+
+/// A `rerun` process group interrupted when dropped, so a failing test leaves no viewer behind.
+struct Child(std::process::Child);
+
+impl Drop for Child {
+    fn drop(&mut self) {
+        interrupt_group(self.0.id());
+        for _ in 0..50 {
+            if matches!(self.0.try_wait(), Ok(Some(_))) {
+                return;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(100));
+        }
+        let _ = Command::new("kill")
+            .args(["-KILL", "--", &format!("-{}", self.0.id())])
+            .status();
+        let _ = self.0.wait();
+    }
+}
+
+/// `rerun ARGS` from the venv, without analytics, in its own process group.
+fn start_rerun(rerun: &Path, args: &[&str], log: &Path) -> Child {
+    use std::os::unix::process::CommandExt as _;
+    let log = std::fs::File::create(log).expect("log file");
+    let err = log.try_clone().expect("log file");
+    Child(
+        Command::new(rerun)
+            .args(args)
+            .env("RERUN_ANALYTICS", "0")
+            .stdin(std::process::Stdio::null())
+            .stdout(log)
+            .stderr(err)
+            .process_group(0)
+            .spawn()
+            .expect("start rerun"),
+    )
+}
+
+/// What a viewer or server at `url` holds: a second `rerun` connects to its proxy and saves
+/// the stream the server buffers for late viewers, until the file shows `entity`.
+fn fetch_from(rerun: &Path, url: &str, dir: &Path, entity: &str) -> Printed {
+    let got = dir.join("fetched.rrd");
+    let port = free_port().to_string();
+    let _saver = start_rerun(
+        rerun,
+        &[
+            "--connect",
+            url,
+            "--port",
+            &port,
+            "--save",
+            got.to_str().expect("utf-8"),
+        ],
+        &dir.join("fetch.log"),
+    );
+    for _ in 0..120 {
+        std::thread::sleep(std::time::Duration::from_millis(500));
+        if is_rrd(&got) {
+            let p = rrd_print(rerun, &got);
+            if p.columns.contains_key(entity) {
+                return p;
+            }
+        }
+    }
+    panic!(
+        "{url} never gave {entity}: {}",
+        std::fs::read_to_string(dir.join("fetch.log")).unwrap_or_default()
+    );
+}
+
+/// `--connect`: a running viewer (the venv's, headless: an offscreen window on the software
+/// rasteriser) receives the recording over gRPC; what it holds is read back from its proxy.
+#[test]
+fn view_connects_to_a_running_viewer() {
+    let Some(rerun) = reference_venv::venv_tool("rerun", "viewer --connect check") else {
+        return;
+    };
+    let dir = tempfile::tempdir().expect("tmp");
+    let port = free_port();
+    let log = dir.path().join("viewer.log");
+    let mut viewer = start_rerun(&rerun, &["--headless", "--port", &port.to_string()], &log);
+    // The headless viewer needs a Vulkan adapter (mesa-vulkan-drivers' lavapipe on a machine
+    // without a GPU); without one it exits at once.
+    for _ in 0..600 {
+        if std::net::TcpStream::connect(("127.0.0.1", port)).is_ok() {
+            break;
+        }
+        if let Ok(Some(status)) = viewer.0.try_wait() {
+            let text = std::fs::read_to_string(&log).unwrap_or_default();
+            testkit::skip(
+                "viewer --connect check",
+                &format!(
+                    "the headless viewer exited ({status}); is a Vulkan rasteriser installed \
+                     (apt-get install -y mesa-vulkan-drivers)?\n{text}"
+                ),
+            );
+            return;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    wait_for_port(port, "the headless viewer");
+    let url = format!("rerun+http://127.0.0.1:{port}/proxy");
+    let mcap = repo().join("recordings/arm_sweep.mcap");
+    let (stdout, _) = rodlog(&["view", mcap.to_str().expect("utf-8"), "--connect", &url]);
+    assert!(
+        stdout.contains(&url) && stdout.contains(" 0 failed"),
+        "{stdout}"
+    );
+    let p = fetch_from(&rerun, &url, dir.path(), "/world/robot/tool0/boxes");
+    assert!(p.has("/world/robot/tool0/boxes", "Boxes3D:half_sizes"));
+    assert!(p.rows_of("/world/tf/arm_wrist3_link", "Transform3D:child_frame") > 100);
+    assert!(
+        p.store_ids
+            .iter()
+            .any(|s| s.starts_with("Recording/rodlog/rodlog-")),
+        "{:?}",
+        p.store_ids
+    );
+    drop(viewer);
+}
+
+/// `--spawn`: rodlog starts `rerun` (found on PATH) on the port given and streams to it. The
+/// `rerun` found is the venv's, started as its gRPC server saving what it receives (a shim on
+/// PATH adds `--serve-grpc --save`), so the test needs no display.
+#[test]
+fn view_spawns_a_viewer_process_and_streams_to_it() {
+    let Some(rerun) = reference_venv::venv_tool("rerun", "viewer --spawn check") else {
+        return;
+    };
+    let dir = tempfile::tempdir().expect("tmp");
+    let bin = dir.path().join("bin");
+    std::fs::create_dir_all(&bin).expect("bin");
+    let saved = dir.path().join("spawned.rrd");
+    let pid_file = dir.path().join("spawned.pid");
+    let shim = bin.join("rerun");
+    std::fs::write(
+        &shim,
+        format!(
+            "#!/bin/sh\necho $$ > {}\nexec {} --serve-grpc --save {} \"$@\" > {} 2>&1\n",
+            pid_file.display(),
+            rerun.display(),
+            saved.display(),
+            dir.path().join("spawned.log").display()
+        ),
+    )
+    .expect("shim");
+    {
+        use std::os::unix::fs::PermissionsExt as _;
+        std::fs::set_permissions(&shim, std::fs::Permissions::from_mode(0o755)).expect("chmod");
+    }
+    let port = free_port();
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let mcap = repo().join("recordings/arm_sweep.mcap");
+    let out = Command::new(env!("CARGO_BIN_EXE_rodlog"))
+        .args([
+            "view",
+            mcap.to_str().expect("utf-8"),
+            "--spawn",
+            "--port",
+            &port.to_string(),
+        ])
+        .env("PATH", &path)
+        .env("RERUN_ANALYTICS", "0")
+        .env_remove("CI")
+        .output()
+        .expect("run rodlog");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && stdout.contains("a spawned viewer"),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // The spawned process is the venv's rerun listening on the port asked for.
+    wait_for_port(port, "the spawned rerun");
+    let mut p = Printed::default();
+    for _ in 0..60 {
+        if is_rrd(&saved) {
+            p = rrd_print(&rerun, &saved);
+            if p.rows_of("/world/tf/arm_wrist3_link", "Transform3D:child_frame") > 100 {
+                break;
+            }
+        }
+        std::thread::sleep(std::time::Duration::from_millis(500));
+    }
+    // Stop the spawned server: the SDK started it in a process group of its own.
+    let pid: Option<u32> = std::fs::read_to_string(&pid_file)
+        .ok()
+        .and_then(|s| s.trim().parse().ok());
+    match pid {
+        Some(pid) => interrupt_group(pid),
+        None => panic!("the shim was not run: no {}", pid_file.display()),
+    }
+    assert!(
+        p.has("/world/robot/tool0/boxes", "Boxes3D:half_sizes"),
+        "{:?}",
+        p.columns.keys()
+    );
+    assert!(p.rows_of("/world/tf/arm_wrist3_link", "Transform3D:child_frame") > 100);
 }

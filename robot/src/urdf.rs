@@ -15,11 +15,23 @@
 //! `camera_color_optical_frame` (its edge from `tool0` is the hand-eye calibration, published
 //! on `/tf` by the calibration stage, DESIGN.md s3; a fixed URDF joint would hide a
 //! recalibration); `rod_link` (the rod is a free body). Geometry is primitive (boxes and
-//! cylinders) and approximate; it is for display, not for collision checking.
+//! cylinders), for display, not for collision checking:
+//!
+//! | link | visuals |
+//! |---|---|
+//! | `base_link` | chassis 1.2 x 0.8 x 0.35 m (the planner's chassis box), four wheels, the lift's sleeve up to its zero height |
+//! | `lift_link` | platform 0.4 x 0.4 m and the mast below it, [`LIFT_TRAVEL_M`] long (when the lift is low its foot is in the well under the chassis) |
+//! | arm links | a joint housing on each joint axis and a tube to the next DH origin |
+//! | `tool0` | flange adapter, the end effector's palm and motor, the two clamp jaws around the handle of a held rod (its axis 60 mm in front of the flange), and the wrist camera (Mech-Eye NANO class, 145 x 51 x 85 mm) at the *nominal* mount, its colour lens at the optical origin |
+//!
+//! The camera housing sits where the bracket puts it by design; the frame the robot
+//! believes in (`camera_color_optical_frame`, from the calibration) may differ after a bump.
 
-use crate::kinematics::{JointKind, LIFT_ZERO_HEIGHT_M, RobotModel};
+use crate::camera_mount::nominal_tool0_from_camera;
+use crate::kinematics::{JointKind, LIFT_TRAVEL_M, LIFT_ZERO_HEIGHT_M, RobotModel};
 use crate::names;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use std::f64::consts::FRAC_PI_2;
 use std::fmt::Write;
 
 /// Name of the `<robot>` element.
@@ -27,6 +39,13 @@ pub const ROBOT_NAME: &str = "rodlog_aubo_i10";
 
 /// Height of the base chassis' top deck above `base_link` (m), display only.
 const CHASSIS_TOP_M: f64 = 0.45;
+/// Wheel radius and width (m), display only.
+const WHEEL: (f64, f64) = (0.16, 0.12);
+/// Mech-Eye NANO class housing (m): width along the camera's x, height along its y, depth
+/// along its z.
+const CAMERA_HOUSING_M: [f64; 3] = [0.145, 0.051, 0.085];
+/// The colour lens' distance from the housing's +x end (m).
+const CAMERA_LENS_INSET_M: f64 = 0.012;
 
 #[derive(Clone, Copy)]
 enum Shape {
@@ -91,6 +110,54 @@ fn at(x: f64, y: f64, z: f64, shape: Shape, material: &'static str) -> Visual {
         shape,
         material,
     }
+}
+
+/// The visuals of `tool0` (module docs): the end effector, its clamp jaws and the wrist
+/// camera at the nominal mount.
+fn tool0_visuals() -> Vec<Visual> {
+    // A held rod's axis runs along tool0 x at z = 60 mm (robot::grounding_rod's grasp); the
+    // handle's radius is 21 mm, so the palm stops at 36 mm and the jaws stand either side.
+    let mut v = vec![
+        at(
+            0.0,
+            0.0,
+            0.006,
+            Shape::Cylinder {
+                radius_m: 0.045,
+                length_m: 0.012,
+            },
+            "tool",
+        ),
+        at(0.0, 0.0, 0.024, Shape::Box([0.1, 0.09, 0.024]), "tool"),
+        at(0.0, 0.028, 0.061, Shape::Box([0.06, 0.012, 0.05]), "jaw"),
+        at(0.0, -0.028, 0.061, Shape::Box([0.06, 0.012, 0.05]), "jaw"),
+    ];
+    // The geared motor beside the palm, along the rod.
+    v.extend(segment(
+        Vector3::new(-0.06, 0.07, 0.03),
+        Vector3::new(0.06, 0.07, 0.03),
+        0.03,
+        "tool",
+    ));
+    // The camera: housing behind the lens, extending along the camera's -x (away from the
+    // rod), and the lens.
+    let tool0_from_camera = nominal_tool0_from_camera();
+    let [w, h, d] = CAMERA_HOUSING_M;
+    v.push(Visual {
+        link_from_shape: tool0_from_camera
+            * Isometry3::translation(-(0.5 * w - CAMERA_LENS_INSET_M), 0.0, -0.5 * d),
+        shape: Shape::Box([w, h, d]),
+        material: "camera",
+    });
+    v.push(Visual {
+        link_from_shape: tool0_from_camera * Isometry3::translation(0.0, 0.0, 0.002),
+        shape: Shape::Cylinder {
+            radius_m: 0.009,
+            length_m: 0.004,
+        },
+        material: "lens",
+    });
+    v
 }
 
 fn write_link(out: &mut String, name: &str, visuals: &[Visual]) {
@@ -165,7 +232,10 @@ pub fn robot_urdf(model: &RobotModel) -> String {
         ("arm", "0.85 0.86 0.88 1"),
         ("joint", "0.12 0.35 0.7 1"),
         ("tool", "0.9 0.45 0.1 1"),
-        ("camera", "0.1 0.1 0.1 1"),
+        ("jaw", "0.35 0.36 0.38 1"),
+        ("camera", "0.16 0.17 0.19 1"),
+        ("lens", "0.2 0.45 0.8 1"),
+        ("wheel", "0.08 0.08 0.08 1"),
     ] {
         let _ = writeln!(
             out,
@@ -174,18 +244,33 @@ pub fn robot_urdf(model: &RobotModel) -> String {
     }
 
     // Base and lift.
-    write_link(
-        &mut out,
-        names::BASE_LINK,
-        &[at(
-            0.0,
-            0.0,
-            0.5 * (CHASSIS_TOP_M + 0.1),
-            Shape::Box([1.2, 0.8, CHASSIS_TOP_M - 0.1]),
-            "chassis",
-        )],
-    );
-    let column_m = (LIFT_ZERO_HEIGHT_M - CHASSIS_TOP_M).max(0.05);
+    let wheel_axis = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), FRAC_PI_2);
+    let mut base = vec![at(
+        0.0,
+        0.0,
+        0.5 * (CHASSIS_TOP_M + 0.1),
+        Shape::Box([1.2, 0.8, CHASSIS_TOP_M - 0.1]),
+        "chassis",
+    )];
+    for (x, y) in [(0.4, 0.46), (0.4, -0.46), (-0.4, 0.46), (-0.4, -0.46)] {
+        base.push(Visual {
+            link_from_shape: Isometry3::from_parts(Translation3::new(x, y, WHEEL.0), wheel_axis),
+            shape: Shape::Cylinder {
+                radius_m: WHEEL.0,
+                length_m: WHEEL.1,
+            },
+            material: "wheel",
+        });
+    }
+    let sleeve_m = (LIFT_ZERO_HEIGHT_M - CHASSIS_TOP_M - 0.03).max(0.01);
+    base.push(at(
+        0.0,
+        0.0,
+        CHASSIS_TOP_M + 0.5 * sleeve_m,
+        Shape::Box([0.28, 0.28, sleeve_m]),
+        "chassis",
+    ));
+    write_link(&mut out, names::BASE_LINK, &base);
     write_link(
         &mut out,
         names::LIFT_LINK,
@@ -194,8 +279,8 @@ pub fn robot_urdf(model: &RobotModel) -> String {
             at(
                 0.0,
                 0.0,
-                -0.5 * column_m,
-                Shape::Box([0.22, 0.22, column_m]),
+                -0.03 - 0.5 * LIFT_TRAVEL_M,
+                Shape::Box([0.22, 0.22, LIFT_TRAVEL_M]),
                 "lift",
             ),
         ],
@@ -240,24 +325,8 @@ pub fn robot_urdf(model: &RobotModel) -> String {
         }
         write_link(&mut out, link, &visuals);
     }
-    // tool0: the lead-screw clamp in front of the flange.
-    write_link(
-        &mut out,
-        names::TOOL0,
-        &[
-            at(
-                0.0,
-                0.0,
-                0.01,
-                Shape::Cylinder {
-                    radius_m: 0.045,
-                    length_m: 0.02,
-                },
-                "tool",
-            ),
-            at(0.0, 0.0, 0.11, Shape::Box([0.1, 0.14, 0.18]), "tool"),
-        ],
-    );
+    // tool0: the end effector, its clamp jaws and the wrist camera.
+    write_link(&mut out, names::TOOL0, &tool0_visuals());
     write_link(
         &mut out,
         names::PANORAMIC_OPTICAL_FRAME,

@@ -60,6 +60,16 @@ impl Pose {
         }
     }
 
+    /// `child_from_parent`: `q* `, `-R(q*) t`.
+    pub fn inverse(&self) -> Pose {
+        let q = [-self.q[0], -self.q[1], -self.q[2], self.q[3]];
+        let t = rotate(q, self.t);
+        Pose {
+            t: [-t[0], -t[1], -t[2]],
+            q,
+        }
+    }
+
     /// Translation as `f32` (the viewer's precision).
     pub fn t_f32(&self) -> [f32; 3] {
         [self.t[0] as f32, self.t[1] as f32, self.t[2] as f32]
@@ -73,6 +83,13 @@ impl Pose {
             self.q[2] as f32,
             self.q[3] as f32,
         ]
+    }
+}
+
+impl Default for Pose {
+    /// The identity.
+    fn default() -> Self {
+        Self::IDENTITY
     }
 }
 

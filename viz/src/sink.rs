@@ -7,14 +7,19 @@
 //! | `world` | — | `CoordinateFrame(map)`: the 3D view's reference frame |
 //! | `world/tf/<child>` | `/tf`, `/tf_static` | `Transform3D` with parent and child frame names; Rerun composes the tree |
 //! | `world/frames/<frame>` | first sight of a frame | `CoordinateFrame` + `TransformAxes3D` (axes of every TF frame, from then on) |
-//! | `world/robot/...` | `/robot_description` or the `robot.urdf` attachment | Rerun's URDF importer (links, geometry) |
-//! | `world/camera/wrist` (`/color`, `/depth`) | `/camera/color/camera_info`, `/camera/{color,depth}/image_raw` | `Pinhole` (parent `camera_color_optical_frame`, child `<frame>_image_plane`), `Image`, `DepthImage` |
-//! | `world/camera/panoramic` (`/color`) | `/panoramic/camera_info`, `/panoramic/image_raw` | `Pinhole`, `Image` |
+//! | `world/robot/<link>/{boxes,cylinders,...}` | `/robot_description` or the `robot.urdf` attachment ([`crate::urdf`]) | `Boxes3D`, `Cylinders3D`, ... in the link's frame (static): `/tf` animates them |
+//! | `world/camera/wrist` (`/color`, `/depth`) | `/camera/color/camera_info`, `/camera/{color,depth}/image_raw` | `Pinhole` (static: parent `camera_color_optical_frame`, child `<frame>_image_plane`), `EncodedImage` (JPEG), `EncodedDepthImage` (16-bit PNG, mm) |
+//! | `world/camera/panoramic` (`/color`) | `/panoramic/camera_info`, `/panoramic/image_raw` | `Pinhole`, `EncodedImage` |
+//! | `world/captures/{task,calibration}/<nnnn>` | each wrist depth capture with its colour image (calibration views: between `/calibration/command` `check`/`collect` and `solve`/`cancel`) | `Points3D` in `map` (camera pose from `/tf` at the capture), at most [`crate::encode::MAX_CAPTURE_POINTS`] |
+//! | `world/calibration/x_before`, `.../x_after` | a change of the `tool0` -> `camera_color_optical_frame` edge on `/tf` (a recalibration) | `Transform3D` under `tool0` + `Pinhole` frustum (grey: before, green: after) |
 //! | `world/perception/roi_cloud` | `/perception/roi_cloud` | `Points3D` in the cloud's frame |
-//! | `world/poses/<name>` (`/axes`) | `/perception/target_pose`, `/base/goal`, `/sim/wire_pose`, `/sim/handle_pose`, `/sim/camera_mount` | `Transform3D` to a named frame + `TransformAxes3D` |
+//! | `world/poses/<name>` (`/axes`) | `/perception/target_pose`, `/base/goal` | `Transform3D` to a named frame + `TransformAxes3D` |
+//! | `world/site/<body>`, `world/site/rod`, `world/site/wire` | [`Viz::log_site`]; the rod as believed ([`crate::site::RodBelief`]); the wire from a hanging-point estimate | `Boxes3D`, `Cylinders3D` |
+//! | `world/sim/...` | `/sim/wire_pose`, `/sim/handle_pose`, `/sim/base_pose`, `/sim/camera_mount` | the simulator's truth: the true wire, rod and camera frustum (hidden by default) |
 //! | `world/trajectories/planned`, `.../executed` | `/arm/planned_path`; `base_link`..`tool0` composed from `/tf` | `LineStrips3D` in `base_link` |
-//! | `matches/image`, `matches/inliers`, `matches/rejected` | `/calibration/matches` + the wrist images at `stamp_a`, `stamp_b` | `Image` (side by side), `LineStrips2D` (green / red) |
+//! | `matches/image`, `matches/inliers`, `matches/rejected` | `/calibration/matches` + the wrist images at `stamp_a`, `stamp_b` | `EncodedImage` (side by side), `LineStrips2D` (green / red) |
 //! | `plots/...` | wind, illuminance (measured and truth), joint positions, calibration residuals and sigmas, lift command | `Scalars` (+ `SeriesLines` names) |
+//! | `events/task` | `/task/event` | `StateChange` (`task/state`): lanes in the state timeline |
 //! | `log/{rosout,task,calibration,commands,sim}` | `/rosout`, `/task/event`, `/calibration/hand_eye`, command topics, `/sim/rod_state` | `TextLog` |
 //! | `recording/metadata` | MCAP metadata records | `TextDocument` (markdown) |
 //! | `recording/whatif`, `log/whatif` | a what-if file's `whatif` record (`rodlog replay --out`) | `TextDocument` (static banner), `TextLog` WARN at the open-loop time |
@@ -31,9 +36,9 @@
 //! Rerun composes TF frames for display, but a trajectory is a line through past poses: the
 //! sink keeps the latest transform of every edge ([`crate::tf::TfTree`]) and, after each `/tf`
 //! message, appends `base_link_from_tool0` when it moved more than [`TRAJECTORY_STEP_M`];
-//! the whole line is re-logged at most every [`TRAJECTORY_PERIOD_NS`] of robot time.
+//! the whole line is re-logged at most every [`TRAJECTORY_PERIOD_NS`] of robot time. The same
+//! tree places the depth captures, the perceived wire and the left rod in `map`.
 
-use std::borrow::Cow;
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 use msgs::Msg;
@@ -43,16 +48,19 @@ use msgs::rcl_interfaces::Log;
 use msgs::rodlog_msgs::{FeatureMatches, HandEyeCalibration, TaskEvent};
 use msgs::sensor_msgs::{CameraInfo, Image, JointState};
 use msgs::topics as t;
-use rerun::datatypes::ChannelDatatype;
 use rerun::{
-    AsComponents, CoordinateFrame, DepthImage, EntityPath, LineStrips2D, LineStrips3D, Pinhole,
-    Points3D, RecordingStream, Scalars, SeriesLines, TextDocument, TextLog, TimeCell, Transform3D,
-    TransformAxes3D,
+    AsComponents, Boxes3D, Capsules3D, CoordinateFrame, Cylinders3D, Ellipsoids3D,
+    EncodedDepthImage, EncodedImage, LineStrips2D, LineStrips3D, MediaType, Pinhole, Points3D,
+    RecordingStream, Scalars, SeriesLines, StateChange, TextDocument, TextLog, TimeCell,
+    Transform3D, TransformAxes3D,
 };
 
 use crate::VizError;
-use crate::convert::{self, PixelKind, Pixels, Pose};
+use crate::convert::{self, Intrinsics, PixelKind, Pixels, Pose};
+use crate::encode;
+use crate::site::{Body, RodBelief, Site};
 use crate::tf::TfTree;
+use crate::urdf::{self, Shape};
 
 /// Timeline of the robot clock: the MCAP `log_time`, ns since the robot clock's epoch.
 pub const TIMELINE_LOG_TIME: &str = "robot_time";
@@ -70,52 +78,84 @@ pub const WRIST_DEPTH: &str = "world/camera/wrist/depth";
 pub const PANORAMIC: &str = "world/camera/panoramic";
 /// The panoramic image.
 pub const PANORAMIC_COLOR: &str = "world/camera/panoramic/color";
+/// Parent of the depth captures: `world/captures/task/0001`, ... and the calibration views
+/// (between a `/calibration/command` `check` or `collect` and the next `solve` or `cancel`)
+/// under [`CALIBRATION_CAPTURES`].
+pub const CAPTURES: &str = "world/captures";
+/// Parent of the depth captures that are calibration views (hidden in the default blueprint:
+/// 4 + 18 overlapping clouds of the calibration cabinet).
+pub const CALIBRATION_CAPTURES: &str = "world/captures/calibration";
+/// Parent of the hand-eye frusta before and after a recalibration.
+pub const CALIBRATION: &str = "world/calibration";
 /// The perception ROI cloud.
 pub const ROI_CLOUD: &str = "world/perception/roi_cloud";
 /// Planned tool0 paths.
 pub const PLANNED: &str = "world/trajectories/planned";
 /// Executed tool0 path.
 pub const EXECUTED: &str = "world/trajectories/executed";
-/// Prefix of the URDF importer's entities.
+/// Parent of the robot's bodies (one child per URDF link).
 pub const ROBOT: &str = "world/robot";
+/// The site as the robot knows it (surveyed bodies, the believed rod, the perceived wire).
+pub const SITE: &str = "world/site";
+/// The simulator's truth (hidden in the default blueprint).
+pub const SIM: &str = "world/sim";
 /// The side-by-side match image.
 pub const MATCHES_IMAGE: &str = "matches/image";
 /// Inlier match segments.
 pub const MATCHES_INLIERS: &str = "matches/inliers";
 /// Rejected match segments.
 pub const MATCHES_REJECTED: &str = "matches/rejected";
+/// Task states as a `StateChange` lane.
+pub const STATES: &str = "events/task";
 /// The metadata document.
 pub const METADATA: &str = "recording/metadata";
 /// Entity of a what-if file's banner ([`Viz::log_whatif`]).
 pub const WHATIF: &str = "recording/whatif";
 
+/// Frame of the believed rod (its parent changes: `map` or `tool0`).
+pub const ROD_FRAME: &str = "site/rod";
+/// Frame of the true rod (under `sim/handle_pose`).
+pub const SIM_ROD_FRAME: &str = "sim/rod";
+
 /// Executed path: minimum tool0 displacement between two samples (m).
 pub const TRAJECTORY_STEP_M: f64 = 0.002;
 /// Executed path: minimum robot time between two re-logs of the line (ns).
 pub const TRAJECTORY_PERIOD_NS: u64 = 250_000_000;
-/// Wrist colour images kept for the match view (the calibration matches recent captures).
+/// Wrist colour images kept for the match view and for colouring depth captures.
 pub const KEPT_IMAGES: usize = 32;
+/// A camera edge that moved more than this (m or quaternion component) is a recalibration.
+pub const RECALIBRATION_EPS: f64 = 1e-9;
+/// Length of the wire drawn around a hanging point (m).
+pub const WIRE_DRAWN_LENGTH_M: f32 = 4.0;
 /// Wrist camera frustum depth drawn in 3D (m).
 const WRIST_PLANE_M: f32 = 0.12;
+/// Depth of the hand-eye frusta before and after a recalibration (m): longer than the live
+/// camera's, so the two stand out of the end effector.
+const CALIBRATION_PLANE_M: f32 = 0.25;
 /// Panoramic camera frustum depth drawn in 3D (m).
 const PANORAMIC_PLANE_M: f32 = 0.4;
 /// Length of the axes drawn at every TF frame (m).
 const FRAME_AXES_M: f32 = 0.06;
 /// Frames whose axes carry their name in the 3D view (the arm links' names would hide the arm).
-const LABELLED_FRAMES: [&str; 5] = [
+const LABELLED_FRAMES: [&str; 3] = [
     msgs::frames::MAP,
     msgs::frames::BASE_LINK,
     msgs::frames::TOOL0,
-    msgs::frames::CAMERA_COLOR_OPTICAL_FRAME,
-    msgs::frames::PANORAMIC_OPTICAL_FRAME,
 ];
 /// Length of the axes drawn at target and truth poses (m).
 const POSE_AXES_M: f32 = 0.15;
+/// Radius of the depth capture points (m).
+const CAPTURE_POINT_RADIUS_M: f32 = 0.002;
+/// Conductor radius when the site does not say (m): 26.8 mm diameter.
+const DEFAULT_WIRE_RADIUS_M: f32 = 0.0134;
 
 const GREEN: [u8; 3] = [40, 220, 80];
 const RED: [u8; 3] = [230, 50, 50];
 const ORANGE: [u8; 3] = [255, 150, 0];
 const CYAN: [u8; 3] = [0, 200, 255];
+const GREY: [u8; 3] = [150, 150, 150];
+const WIRE_RGBA: [u8; 4] = [70, 90, 120, 255];
+const TRUTH_RGBA: [u8; 4] = [255, 60, 200, 160];
 
 /// What was drawn, per topic.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -126,6 +166,10 @@ pub struct VizStats {
     pub skipped: BTreeMap<String, u64>,
     /// Messages that could not be drawn (malformed), per topic.
     pub failed: BTreeMap<String, u64>,
+    /// Depth captures drawn as points.
+    pub captures: u64,
+    /// Recalibrations drawn as frusta.
+    pub recalibrations: u64,
 }
 
 impl VizStats {
@@ -136,7 +180,7 @@ impl VizStats {
 }
 
 /// The Rerun sink: a recording stream and the little state drawing needs (latest camera
-/// sizes, recent wrist images, the TF tree, the executed path).
+/// model, recent wrist images, the TF tree, the executed path, the believed rod).
 pub struct Viz {
     rec: RecordingStream,
     stats: VizStats,
@@ -148,10 +192,21 @@ pub struct Viz {
     executed_last: Option<[f64; 3]>,
     executed_dirty: bool,
     executed_logged_ns: Option<u64>,
-    wrist_size: Option<[u32; 2]>,
+    wrist: Option<(Intrinsics, [u32; 2])>,
     images: VecDeque<(Time, Pixels)>,
+    pending_depth: Option<(Time, Pixels)>,
+    camera_edge: Option<Pose>,
     urdf_hash: Option<u64>,
     rod_state: Option<String>,
+    site: Option<Site>,
+    rod: Option<RodBelief>,
+    task_state: Option<String>,
+    calibration_views: bool,
+    now_ns: u64,
+    anchored: BTreeSet<String>,
+    sim_rod_drawn: bool,
+    sim_wire_drawn: bool,
+    sim_frustum_drawn: bool,
 }
 
 impl std::fmt::Debug for Viz {
@@ -203,6 +258,185 @@ fn rosout_level(level: u8) -> &'static str {
     }
 }
 
+/// `q * Rx(-90 deg)`: a cylinder (axis = its z) lying along the `y` axis of `q`.
+fn along_y(q: [f64; 4]) -> [f64; 4] {
+    let s = std::f64::consts::FRAC_1_SQRT_2;
+    Pose { t: [0.0; 3], q }
+        .compose(&Pose {
+            t: [0.0; 3],
+            q: [-s, 0.0, 0.0, s],
+        })
+        .q
+}
+
+/// `q * Ry(90 deg)`: a cylinder lying along the `x` axis of `q`.
+fn along_x(q: [f64; 4]) -> [f64; 4] {
+    let s = std::f64::consts::FRAC_1_SQRT_2;
+    Pose { t: [0.0; 3], q }
+        .compose(&Pose {
+            t: [0.0; 3],
+            q: [0.0, s, 0.0, s],
+        })
+        .q
+}
+
+/// The axis `k` (0 = x, 1 = y, 2 = z) of a rotation `q`.
+fn axis_of(q: [f64; 4], k: usize) -> [f64; 3] {
+    let mut e = [0.0; 3];
+    e[k] = 1.0;
+    Pose { t: [0.0; 3], q }
+        .compose(&Pose {
+            t: e,
+            q: [0.0, 0.0, 0.0, 1.0],
+        })
+        .t
+}
+
+/// Whether a `/perception/target_pose` is a hook goal on the wire (its `z` up, `y` along the
+/// wire: `control::tasks::poses::hook_goal`) rather than a grasp of the handle (`tool0`'s `x`
+/// along the upright rod).
+pub fn is_hook_goal(q: [f64; 4]) -> bool {
+    axis_of(q, 2)[2] > 0.9
+}
+
+/// A shape drawn at `frame_from_shape`, in sRGBA.
+type Part = (Pose, Shape, [u8; 4]);
+
+/// Logs the shapes of `bodies` (all in one frame) under `entity`: one `Boxes3D`, `Cylinders3D`,
+/// `Ellipsoids3D`, `Capsules3D` child per kind present, each in `frame`.
+fn log_bodies(
+    rec: &RecordingStream,
+    entity: &str,
+    frame: &str,
+    bodies: &[Part],
+    labels: Option<&[String]>,
+    static_: bool,
+) -> Result<(), VizError> {
+    let coordinate_frame = CoordinateFrame::new(frame);
+    let pick = |want: fn(&Shape) -> bool| -> Vec<usize> {
+        (0..bodies.len()).filter(|&i| want(&bodies[i].1)).collect()
+    };
+    let log = |name: &str, arch: &dyn AsComponents| -> Result<(), VizError> {
+        let path = format!("{entity}/{name}");
+        let comps: [&dyn AsComponents; 2] = [arch, &coordinate_frame];
+        if static_ {
+            rec.log_static(path, &comps)?;
+        } else {
+            rec.log(path, &comps)?;
+        }
+        Ok(())
+    };
+    let color = |i: usize| {
+        let [r, g, b, a] = bodies[i].2;
+        rerun::Color::from_unmultiplied_rgba(r, g, b, a)
+    };
+    let label_of = |idx: &[usize]| -> Vec<String> {
+        labels
+            .map(|l| idx.iter().filter_map(|&i| l.get(i).cloned()).collect())
+            .unwrap_or_default()
+    };
+    let boxes = pick(|s| matches!(s, Shape::Box { .. }));
+    if !boxes.is_empty() {
+        let half: Vec<[f32; 3]> = boxes
+            .iter()
+            .filter_map(|&i| match bodies[i].1 {
+                Shape::Box { half_m } => Some(half_m),
+                _ => None,
+            })
+            .collect();
+        let mut arch =
+            Boxes3D::from_centers_and_half_sizes(boxes.iter().map(|&i| bodies[i].0.t_f32()), half)
+                .with_quaternions(
+                    boxes
+                        .iter()
+                        .map(|&i| rerun::Quaternion::from_xyzw(bodies[i].0.q_f32())),
+                )
+                .with_colors(boxes.iter().map(|&i| color(i)))
+                .with_fill_mode(rerun::FillMode::Solid);
+        let l = label_of(&boxes);
+        if !l.is_empty() {
+            arch = arch.with_labels(l).with_show_labels(false);
+        }
+        log("boxes", &arch)?;
+    }
+    let cylinders = pick(|s| matches!(s, Shape::Cylinder { .. }));
+    if !cylinders.is_empty() {
+        let (lengths, radii): (Vec<f32>, Vec<f32>) = cylinders
+            .iter()
+            .filter_map(|&i| match bodies[i].1 {
+                Shape::Cylinder { radius_m, length_m } => Some((length_m, radius_m)),
+                _ => None,
+            })
+            .unzip();
+        let mut arch = Cylinders3D::from_lengths_and_radii(lengths, radii)
+            .with_centers(cylinders.iter().map(|&i| bodies[i].0.t_f32()))
+            .with_quaternions(
+                cylinders
+                    .iter()
+                    .map(|&i| rerun::Quaternion::from_xyzw(bodies[i].0.q_f32())),
+            )
+            .with_colors(cylinders.iter().map(|&i| color(i)))
+            .with_fill_mode(rerun::FillMode::Solid);
+        let l = label_of(&cylinders);
+        if !l.is_empty() {
+            arch = arch.with_labels(l).with_show_labels(false);
+        }
+        log("cylinders", &arch)?;
+    }
+    let spheres = pick(|s| matches!(s, Shape::Sphere { .. }));
+    if !spheres.is_empty() {
+        let radii: Vec<f32> = spheres
+            .iter()
+            .filter_map(|&i| match bodies[i].1 {
+                Shape::Sphere { radius_m } => Some(radius_m),
+                _ => None,
+            })
+            .collect();
+        let arch = Ellipsoids3D::from_radii(radii)
+            .with_centers(spheres.iter().map(|&i| bodies[i].0.t_f32()))
+            .with_colors(spheres.iter().map(|&i| color(i)))
+            .with_fill_mode(rerun::FillMode::Solid);
+        log("spheres", &arch)?;
+    }
+    let capsules = pick(|s| matches!(s, Shape::Capsule { .. }));
+    if !capsules.is_empty() {
+        let (lengths, radii): (Vec<f32>, Vec<f32>) = capsules
+            .iter()
+            .filter_map(|&i| match bodies[i].1 {
+                Shape::Capsule { radius_m, length_m } => Some((length_m, radius_m)),
+                _ => None,
+            })
+            .unzip();
+        // A URDF capsule is centred at its origin; Rerun's starts there.
+        let arch = Capsules3D::from_lengths_and_radii(lengths.clone(), radii)
+            .with_translations(capsules.iter().zip(&lengths).map(|(&i, len)| {
+                let p = bodies[i].0;
+                let a = axis_of(p.q, 2);
+                let h = 0.5 * f64::from(*len);
+                [
+                    (p.t[0] - h * a[0]) as f32,
+                    (p.t[1] - h * a[1]) as f32,
+                    (p.t[2] - h * a[2]) as f32,
+                ]
+            }))
+            .with_quaternions(
+                capsules
+                    .iter()
+                    .map(|&i| rerun::Quaternion::from_xyzw(bodies[i].0.q_f32())),
+            )
+            .with_colors(capsules.iter().map(|&i| color(i)));
+        log("capsules", &arch)?;
+    }
+    Ok(())
+}
+
+fn body_parts(bodies: &[Body]) -> (Vec<Part>, Vec<String>) {
+    (
+        bodies.iter().map(|b| (b.pose, b.shape, b.rgba)).collect(),
+        bodies.iter().map(|b| b.name.clone()).collect(),
+    )
+}
+
 impl Viz {
     /// Over a recording stream the caller built (see [`crate::stream`]): disables the SDK's
     /// wall-clock timelines and logs the `map` root frame.
@@ -224,16 +458,29 @@ impl Viz {
             executed_last: None,
             executed_dirty: false,
             executed_logged_ns: None,
-            wrist_size: None,
+            wrist: None,
             images: VecDeque::new(),
+            pending_depth: None,
+            camera_edge: None,
             urdf_hash: None,
             rod_state: None,
+            site: None,
+            rod: None,
+            task_state: None,
+            calibration_views: false,
+            now_ns: 0,
+            anchored: BTreeSet::new(),
+            sim_rod_drawn: false,
+            sim_wire_drawn: false,
+            sim_frustum_drawn: false,
         };
         viz.log_series_styles()?;
         // Until odometry says otherwise, base_link sits at the map origin (recordings without a
         // base driver, e.g. the test world, still show the robot in the 3D view). Temporal at
         // t = 0, not static: static data would hide every later `/tf` of this edge.
         viz.set_time(0);
+        viz.tf
+            .set(msgs::frames::MAP, msgs::frames::BASE_LINK, Pose::IDENTITY);
         viz.rec.log(
             format!("world/tf/{}", msgs::frames::BASE_LINK),
             &transform(msgs::frames::MAP, msgs::frames::BASE_LINK, &Pose::IDENTITY),
@@ -325,23 +572,128 @@ impl Viz {
         Ok(())
     }
 
-    /// Draws the robot from its URDF with Rerun's URDF importer (static, under [`ROBOT`]); a
+    /// Draws the robot from its URDF ([`crate::urdf`]): every link's visuals, static, under
+    /// `world/robot/<link>` in the link's frame, so `/tf` animates them as ROS tools do. A
     /// text identical to the last one drawn is skipped.
     ///
     /// # Errors
-    /// [`VizError::Rerun`] when the importer rejects the text.
-    pub fn log_urdf(&mut self, urdf: &str) -> Result<(), VizError> {
-        let h = convert::fnv1a64(&[urdf]);
+    /// [`VizError::Urdf`] when the text is not a URDF; [`VizError::Rerun`].
+    pub fn log_urdf(&mut self, urdf_text: &str) -> Result<(), VizError> {
+        let h = convert::fnv1a64(&[urdf_text]);
         if self.urdf_hash == Some(h) {
             return Ok(());
         }
+        let robot = urdf::robot_visuals(urdf_text)?;
         self.urdf_hash = Some(h);
-        self.rec.log_file_from_contents(
-            "robot.urdf",
-            Cow::Borrowed(urdf.as_bytes()),
-            Some(EntityPath::from(ROBOT)),
+        self.log_zero_pose(&robot.joints)?;
+        for link in &robot.links {
+            let bodies: Vec<Part> = robot
+                .visuals
+                .iter()
+                .filter(|v| &v.link == link)
+                .map(|v| (v.pose, v.shape, v.rgba))
+                .collect();
+            if bodies.is_empty() {
+                continue;
+            }
+            log_bodies(
+                &self.rec,
+                &format!("{ROBOT}/{}", part(link)),
+                link,
+                &bodies,
+                None,
+                true,
+            )?;
+        }
+        Ok(())
+    }
+
+    /// At t = 0, before the first `/tf` (the recording's first instant holds the drivers'
+    /// messages; `robot_state` publishes a step later), every URDF joint at position 0 on the
+    /// entity of its child's `/tf` edge, and the wrist camera's frame at `tool0`: as a ROS tool
+    /// shows a robot description before any joint state. The first `/tf` of each edge replaces
+    /// it. Without it the viewer reports the 3D view in error at t = 0 (the links' and the
+    /// camera's frames have no path to `map`).
+    fn log_zero_pose(&mut self, joints: &[urdf::Joint]) -> Result<(), VizError> {
+        let now = self.now_ns;
+        self.rec
+            .set_time(TIMELINE_LOG_TIME, TimeCell::from_duration_nanos(0));
+        self.rec.set_time_sequence(TIMELINE_FRAME, 0);
+        let mut result = Ok(());
+        let camera = (
+            msgs::frames::TOOL0.to_owned(),
+            msgs::frames::CAMERA_COLOR_OPTICAL_FRAME.to_owned(),
+            Pose::IDENTITY,
+        );
+        for (parent, child, pose) in joints
+            .iter()
+            .map(|j| (j.parent.clone(), j.child.clone(), j.origin))
+            .chain(std::iter::once(camera))
+        {
+            result = self.rec.log(
+                format!("world/tf/{}", part(&child)),
+                &transform(&parent, &child, &pose),
+            );
+            if result.is_err() {
+                break;
+            }
+        }
+        self.set_time(now);
+        result?;
+        Ok(())
+    }
+
+    /// Draws the site as the robot knows it: the surveyed fixed bodies (static, in `map`, under
+    /// `world/site/<name>`), and the rod (its parts static in [`ROD_FRAME`]) on the rack when
+    /// the site knows where the stored rod stands. Keeps the site for the rod's belief and the
+    /// wire's radius.
+    ///
+    /// # Errors
+    /// [`VizError::Rerun`].
+    pub fn log_site(&mut self, site: &Site) -> Result<(), VizError> {
+        let mut groups: BTreeMap<String, Vec<Body>> = BTreeMap::new();
+        for b in &site.fixed {
+            let group = b.name.split('_').next().unwrap_or("site").to_owned();
+            groups.entry(group).or_default().push(b.clone());
+        }
+        for (group, bodies) in &groups {
+            let (parts, labels) = body_parts(bodies);
+            log_bodies(
+                &self.rec,
+                &format!("{SITE}/{}", part(group)),
+                msgs::frames::MAP,
+                &parts,
+                Some(&labels),
+                true,
+            )?;
+        }
+        let (parts, labels) = body_parts(&site.rod_parts);
+        log_bodies(
+            &self.rec,
+            &format!("{SITE}/rod"),
+            ROD_FRAME,
+            &parts,
+            Some(&labels),
             true,
         )?;
+        self.site = Some(site.clone());
+        if let Some(p) = site.map_from_stored_rod {
+            let t = self.last_time_ns;
+            self.set_time(t);
+            self.set_rod(RodBelief {
+                parent: msgs::frames::MAP.to_owned(),
+                pose: p,
+            })?;
+        }
+        Ok(())
+    }
+
+    fn set_rod(&mut self, belief: RodBelief) -> Result<(), VizError> {
+        self.rec.log(
+            format!("{SITE}/rod"),
+            &transform(&belief.parent, ROD_FRAME, &belief.pose),
+        )?;
+        self.rod = Some(belief);
         Ok(())
     }
 
@@ -394,11 +746,33 @@ impl Viz {
     }
 
     fn set_time(&mut self, log_time_ns: u64) {
+        self.now_ns = log_time_ns;
         self.last_time_ns = self.last_time_ns.max(log_time_ns);
         let ns = i64::try_from(log_time_ns).unwrap_or(i64::MAX);
         self.rec
             .set_time(TIMELINE_LOG_TIME, TimeCell::from_duration_nanos(ns));
         self.rec.set_time_sequence(TIMELINE_FRAME, self.frame);
+    }
+
+    /// Puts `entity` in `map` from t = 0 (once), for an entity of the 3D scene whose own frame
+    /// is logged only with its data, later: until then its implicit frame `tf#/<path>` has no
+    /// path to the view's `map`, and the viewer reports the whole 3D view in error ("No
+    /// transform path from tf#/world/... to the view's target frame"). The entity's data logs
+    /// its real frame ([`CoordinateFrame`], a pinhole's parent) from its first message on.
+    fn anchor(&mut self, entity: &str) -> Result<(), VizError> {
+        if !self.anchored.insert(entity.to_owned()) {
+            return Ok(());
+        }
+        let now = self.now_ns;
+        self.rec
+            .set_time(TIMELINE_LOG_TIME, TimeCell::from_duration_nanos(0));
+        self.rec.set_time_sequence(TIMELINE_FRAME, 0);
+        let result = self
+            .rec
+            .log(entity, &CoordinateFrame::new(msgs::frames::MAP));
+        self.set_time(now);
+        result?;
+        Ok(())
     }
 
     /// Returns whether the message was drawn.
@@ -412,7 +786,8 @@ impl Viz {
             }
             (t::ROBOT_DESCRIPTION, Msg::String(s)) => self.log_urdf(&s.data)?,
             (t::CAMERA_COLOR_INFO, Msg::CameraInfo(info)) => {
-                self.wrist_size = Some([info.width, info.height]);
+                let k = convert::intrinsics(info)?;
+                self.wrist = Some((k, [info.width, info.height]));
                 self.log_pinhole(
                     WRIST,
                     info,
@@ -435,16 +810,31 @@ impl Viz {
                 while self.images.len() > KEPT_IMAGES {
                     self.images.pop_front();
                 }
+                // A depth image that came first: coloured now, or grey when this colour image
+                // belongs to another capture.
+                if let Some((stamp, depth)) = self.pending_depth.take() {
+                    self.log_capture(&depth, stamp)?;
+                }
             }
             (t::CAMERA_DEPTH_IMAGE, Msg::Image(img)) => {
-                self.log_image(WRIST_DEPTH, img, msgs::frames::CAMERA_COLOR_OPTICAL_FRAME)?;
+                let px =
+                    self.log_image(WRIST_DEPTH, img, msgs::frames::CAMERA_COLOR_OPTICAL_FRAME)?;
+                if let Some((stamp, old)) = self.pending_depth.take() {
+                    self.log_capture(&old, stamp)?;
+                }
+                let stamp = img.header.stamp;
+                if self.images.iter().any(|(s, _)| *s == stamp) {
+                    self.log_capture(&px, stamp)?;
+                } else {
+                    self.pending_depth = Some((stamp, px));
+                }
             }
             (t::PANORAMIC_IMAGE, Msg::Image(img)) => {
                 self.log_image(PANORAMIC_COLOR, img, msgs::frames::PANORAMIC_OPTICAL_FRAME)?;
             }
             (t::PERCEPTION_ROI_CLOUD, Msg::PointCloud2(cloud)) => {
                 let pts = convert::cloud_points(cloud)?;
-                let mut points = Points3D::new(pts.positions).with_radii([0.002f32]);
+                let mut points = Points3D::new(pts.positions).with_radii([0.003f32]);
                 if !pts.colors.is_empty() {
                     points = points.with_colors(pts.colors);
                 } else {
@@ -452,35 +842,79 @@ impl Viz {
                 }
                 let frame =
                     CoordinateFrame::new(frame_or(&cloud.header.frame_id, msgs::frames::BASE_LINK));
+                self.anchor(ROI_CLOUD)?;
                 self.rec.log(
                     ROI_CLOUD,
                     &[&points as &dyn AsComponents, &frame as &dyn AsComponents],
                 )?;
             }
             (t::PERCEPTION_TARGET_POSE, Msg::PoseStamped(p)) => {
-                self.log_pose("target_pose", p, "perception/target_pose")?;
+                self.log_pose("world/poses/target_pose", p, "perception/target_pose")?;
+                self.log_perceived(p)?;
             }
             (t::BASE_GOAL, Msg::PoseStamped(p)) => {
-                self.log_pose("base_goal", p, "commands/base_goal")?;
+                self.log_pose("world/poses/base_goal", p, "commands/base_goal")?;
                 self.command_line(topic, "base goal".into())?;
             }
             (t::SIM_WIRE_POSE, Msg::PoseStamped(p)) => {
-                self.log_pose("sim_wire_pose", p, "sim/wire_pose")?;
+                self.log_pose(&format!("{SIM}/wire_pose"), p, "sim/wire_pose")?;
+                if !self.sim_wire_drawn {
+                    self.sim_wire_drawn = true;
+                    let radius = self.wire_radius();
+                    let wire = Shape::Cylinder {
+                        radius_m: radius,
+                        length_m: WIRE_DRAWN_LENGTH_M,
+                    };
+                    let pose = Pose {
+                        t: [0.0; 3],
+                        q: along_x([0.0, 0.0, 0.0, 1.0]),
+                    };
+                    log_bodies(
+                        &self.rec,
+                        &format!("{SIM}/wire"),
+                        "sim/wire_pose",
+                        &[(pose, wire, TRUTH_RGBA)],
+                        Some(&["true wire".to_owned()]),
+                        true,
+                    )?;
+                }
             }
             (t::SIM_HANDLE_POSE, Msg::PoseStamped(p)) => {
-                self.log_pose("sim_handle_pose", p, "sim/handle_pose")?;
+                self.log_pose(&format!("{SIM}/handle_pose"), p, "sim/handle_pose")?;
+                self.draw_sim_rod()?;
             }
             (t::SIM_BASE_POSE, Msg::PoseStamped(p)) => {
-                self.log_pose("sim_base_pose", p, "sim/base_pose")?;
+                self.log_pose(&format!("{SIM}/base_pose"), p, "sim/base_pose")?;
             }
             (t::CALIBRATION_COMMAND, Msg::String(c)) => {
+                match c.data.trim() {
+                    "check" | "collect" => self.calibration_views = true,
+                    "solve" | "cancel" => self.calibration_views = false,
+                    _ => {}
+                }
                 self.command_line(topic, format!("calibration: {}", c.data))?;
             }
             (t::SIM_CAMERA_MOUNT, Msg::TransformStamped(ts)) => {
-                // The true mount, drawn as its own frame beside the estimated camera frame.
+                // The true mount, drawn as its own frame (and frustum) beside the estimate.
                 let pose = Pose::from_transform(&ts.transform);
                 let parent = frame_or(&ts.header.frame_id, msgs::frames::TOOL0);
-                self.log_named_pose("sim_camera_mount", parent, "sim/camera_mount", &pose)?;
+                self.log_named_pose(
+                    &format!("{SIM}/camera_mount"),
+                    parent,
+                    "sim/camera_mount",
+                    &pose,
+                )?;
+                if !self.sim_frustum_drawn
+                    && let Some((k, _)) = self.wrist
+                {
+                    self.sim_frustum_drawn = true;
+                    self.log_frustum(
+                        &format!("{SIM}/camera_mount/frustum"),
+                        "sim/camera_mount",
+                        &k,
+                        [255, 60, 200],
+                    )?;
+                }
             }
             (t::ARM_PLANNED_PATH, Msg::Path(path)) => {
                 let pts: Vec<[f32; 3]> = path
@@ -492,8 +926,8 @@ impl Viz {
                     CoordinateFrame::new(frame_or(&path.header.frame_id, msgs::frames::BASE_LINK));
                 let strips = LineStrips3D::new([pts])
                     .with_colors([ORANGE])
-                    .with_radii([0.004f32])
-                    .with_labels(["planned"]);
+                    .with_radii([0.004f32]);
+                self.anchor(PLANNED)?;
                 self.rec.log(
                     PLANNED,
                     &[&strips as &dyn AsComponents, &frame as &dyn AsComponents],
@@ -566,6 +1000,127 @@ impl Viz {
         Ok(true)
     }
 
+    fn wire_radius(&self) -> f32 {
+        self.site
+            .as_ref()
+            .map(|s| s.wire_radius_m)
+            .filter(|r| *r > 0.0)
+            .unwrap_or(DEFAULT_WIRE_RADIUS_M)
+    }
+
+    /// The true rod at `/sim/handle_pose` (static parts under `sim/rod`, once).
+    fn draw_sim_rod(&mut self) -> Result<(), VizError> {
+        if self.sim_rod_drawn {
+            return Ok(());
+        }
+        let Some(site) = &self.site else {
+            return Ok(());
+        };
+        self.sim_rod_drawn = true;
+        let handle_from_rod = site.rod_from_handle.inverse();
+        let parts: Vec<Part> = site
+            .rod_parts
+            .iter()
+            .map(|b| (b.pose, b.shape, TRUTH_RGBA))
+            .collect();
+        self.rec.log_static(
+            format!("{SIM}/rod"),
+            &transform("sim/handle_pose", SIM_ROD_FRAME, &handle_from_rod),
+        )?;
+        log_bodies(
+            &self.rec,
+            &format!("{SIM}/rod"),
+            SIM_ROD_FRAME,
+            &parts,
+            None,
+            true,
+        )
+    }
+
+    /// A hook goal becomes the perceived wire; a grasp the perceived rod (in `map`, at the
+    /// time of the estimate).
+    fn log_perceived(&mut self, p: &PoseStamped) -> Result<(), VizError> {
+        let frame = frame_or(&p.header.frame_id, msgs::frames::BASE_LINK);
+        let Some(map_from_frame) = self.tf.lookup(msgs::frames::MAP, frame) else {
+            return Ok(());
+        };
+        let target = map_from_frame.compose(&Pose::from_pose(&p.pose));
+        if is_hook_goal(target.q) {
+            let wire = Shape::Cylinder {
+                radius_m: self.wire_radius(),
+                length_m: WIRE_DRAWN_LENGTH_M,
+            };
+            let pose = Pose {
+                t: target.t,
+                q: along_y(target.q),
+            };
+            self.anchor(&format!("{SITE}/wire/cylinders"))?;
+            log_bodies(
+                &self.rec,
+                &format!("{SITE}/wire"),
+                msgs::frames::MAP,
+                &[(pose, wire, WIRE_RGBA)],
+                Some(&["wire (perceived)".to_owned()]),
+                false,
+            )?;
+        } else if let Some(site) = &self.site
+            && !self.rod.as_ref().is_some_and(RodBelief::held)
+        {
+            let pose = target.compose(&site.tool0_from_rod);
+            self.set_rod(RodBelief {
+                parent: msgs::frames::MAP.to_owned(),
+                pose,
+            })?;
+        }
+        Ok(())
+    }
+
+    /// One depth capture as coloured points in `map`, under `world/captures/<nnnn>`.
+    fn log_capture(&mut self, depth: &Pixels, stamp: Time) -> Result<(), VizError> {
+        let Some((k, _)) = self.wrist else {
+            return Ok(());
+        };
+        let camera = msgs::frames::CAMERA_COLOR_OPTICAL_FRAME;
+        let Some(map_from_camera) = self.tf.lookup(msgs::frames::MAP, camera) else {
+            return Ok(());
+        };
+        let mm = encode::depth_mm(depth)?;
+        let colour = self
+            .images
+            .iter()
+            .rev()
+            .find(|(s, _)| *s == stamp)
+            .map(|(_, p)| p);
+        let stride = encode::stride_for(depth.width, depth.height, encode::MAX_CAPTURE_POINTS);
+        let cloud = encode::depth_cloud(
+            &mm,
+            depth.width,
+            depth.height,
+            colour,
+            &k,
+            &map_from_camera,
+            stride,
+        );
+        self.stats.captures += 1;
+        let mut points = Points3D::new(cloud.positions).with_radii([CAPTURE_POINT_RADIUS_M]);
+        if !cloud.colors.is_empty() {
+            points = points.with_colors(cloud.colors);
+        }
+        let group = if self.calibration_views {
+            CALIBRATION_CAPTURES.to_owned()
+        } else {
+            format!("{CAPTURES}/task")
+        };
+        let entity = format!("{group}/{:04}", self.stats.captures);
+        // The frame static: before the capture's time the entity must still resolve to `map`
+        // (an entity without a frame at the cursor's time is in `tf#/<path>`, which has no
+        // path to `map`, and the whole 3D view is reported in error).
+        self.rec
+            .log_static(entity.as_str(), &CoordinateFrame::new(msgs::frames::MAP))?;
+        self.rec.log(entity, &points)?;
+        Ok(())
+    }
+
     fn command_line(&mut self, topic: &str, text: String) -> Result<(), VizError> {
         self.rec.log(
             "log/commands",
@@ -586,8 +1141,10 @@ impl Viz {
             return Ok(());
         }
         self.frames_seen.insert(frame.to_owned());
+        let entity = format!("world/frames/{}", part(frame));
+        self.anchor(&entity)?;
         self.rec.log(
-            format!("world/frames/{}", part(frame)),
+            entity,
             &[
                 &CoordinateFrame::new(frame) as &dyn AsComponents,
                 &TransformAxes3D::new(FRAME_AXES_M)
@@ -607,12 +1164,87 @@ impl Viz {
             });
         }
         let pose = Pose::from_transform(&ts.transform);
+        if parent == msgs::frames::TOOL0 && child == msgs::frames::CAMERA_COLOR_OPTICAL_FRAME {
+            self.camera_edge_moved(&pose)?;
+        }
         self.tf.set(parent, child, pose);
         self.see_frame(parent)?;
         self.see_frame(child)?;
         self.rec.log(
             format!("world/tf/{}", part(child)),
             &transform(parent, child, &pose),
+        )?;
+        Ok(())
+    }
+
+    /// Draws the hand-eye X before and after a change of the camera edge (a recalibration
+    /// accepted by the calibration stage) as two frusta under `tool0`.
+    fn camera_edge_moved(&mut self, now: &Pose) -> Result<(), VizError> {
+        let Some(before) = self.camera_edge.replace(*now) else {
+            return Ok(());
+        };
+        let moved = before
+            .t
+            .iter()
+            .zip(&now.t)
+            .chain(before.q.iter().zip(&now.q))
+            .any(|(a, b)| (a - b).abs() > RECALIBRATION_EPS);
+        if !moved {
+            return Ok(());
+        }
+        let Some((k, _)) = self.wrist else {
+            return Ok(());
+        };
+        self.stats.recalibrations += 1;
+        for (name, pose, colour) in [("x_before", before, GREY), ("x_after", *now, GREEN)] {
+            let frame = format!("calibration/{name}");
+            let entity = format!("{CALIBRATION}/{name}");
+            self.log_named_pose(&entity, msgs::frames::TOOL0, &frame, &pose)?;
+            self.log_frustum(&format!("{entity}/frustum"), &frame, &k, colour)?;
+        }
+        let dt = [
+            (now.t[0] - before.t[0]) * 1e3,
+            (now.t[1] - before.t[1]) * 1e3,
+            (now.t[2] - before.t[2]) * 1e3,
+        ];
+        let dot = before
+            .q
+            .iter()
+            .zip(&now.q)
+            .map(|(a, b)| a * b)
+            .sum::<f64>()
+            .abs()
+            .min(1.0);
+        self.rec.log(
+            "log/calibration",
+            &TextLog::new(format!(
+                "tool0_from_camera changed by {:.2} mm, {:.3} deg (frusta: grey before, green after)",
+                (dt[0] * dt[0] + dt[1] * dt[1] + dt[2] * dt[2]).sqrt(),
+                (2.0 * dot.acos()).to_degrees()
+            ))
+            .with_level(rerun::TextLogLevel::INFO),
+        )?;
+        Ok(())
+    }
+
+    /// A pinhole frustum (no image) in `frame`.
+    fn log_frustum(
+        &mut self,
+        entity: &str,
+        frame: &str,
+        k: &Intrinsics,
+        colour: [u8; 3],
+    ) -> Result<(), VizError> {
+        let pinhole = Pinhole::from_focal_length_and_resolution(k.focal, k.resolution)
+            .with_principal_point(k.principal)
+            .with_parent_frame(frame)
+            .with_child_frame(format!("{frame}_image_plane"))
+            .with_image_plane_distance(CALIBRATION_PLANE_M)
+            .with_color(rerun::Color::from_rgb(colour[0], colour[1], colour[2]));
+        self.anchor(entity)?;
+        self.rec.log(
+            entity,
+            &[&pinhole as &dyn AsComponents, &CoordinateFrame::new(frame)],
         )?;
         Ok(())
     }
@@ -641,10 +1273,10 @@ impl Viz {
     }
 
     fn log_executed(&mut self, log_time_ns: u64) -> Result<(), VizError> {
+        self.anchor(EXECUTED)?;
         let strips = LineStrips3D::new([self.executed.clone()])
             .with_colors([CYAN])
-            .with_radii([0.003f32])
-            .with_labels(["executed"]);
+            .with_radii([0.003f32]);
         self.rec.log(
             EXECUTED,
             &[
@@ -672,11 +1304,18 @@ impl Viz {
             .with_parent_frame(frame)
             .with_child_frame(format!("{frame}_image_plane"))
             .with_image_plane_distance(plane_m);
-        self.rec.log(entity, &pinhole)?;
+        // Static: the camera model is the recording's (a later camera info replaces it for
+        // all times), and its image plane then exists at all times, so the image entity below
+        // it is never without a pinhole ancestor (a view error) before the first camera info.
+        self.rec.log_static(
+            entity,
+            &[&pinhole as &dyn AsComponents, &CoordinateFrame::new(frame)],
+        )?;
         Ok(())
     }
 
-    /// Logs a colour or depth image in `<frame>_image_plane` and returns its pixels.
+    /// Logs a colour (JPEG) or depth (16-bit PNG, mm) image in `<frame>_image_plane` and
+    /// returns its pixels.
     fn log_image(
         &mut self,
         entity: &str,
@@ -684,68 +1323,65 @@ impl Viz {
         default_frame: &str,
     ) -> Result<Pixels, VizError> {
         let px = convert::image_pixels(img)?;
-        let size = [px.width, px.height];
-        let plane = CoordinateFrame::new(format!(
+        let plane_frame = format!(
             "{}_image_plane",
             frame_or(&img.header.frame_id, default_frame)
-        ));
-        let data = px.data.clone();
+        );
+        // The image plane static (its camera's static pinhole defines it at all times): every
+        // temporal row of an encoded-image entity then holds an image. The viewer plays
+        // encoded images through its video cache, which panicked ("index out of bounds" in
+        // video_stream_cache.rs) on an entity whose chunks also held rows without one (a
+        // temporal frame-only row).
+        if self.anchored.insert(entity.to_owned()) {
+            self.rec
+                .log_static(entity, &CoordinateFrame::new(plane_frame))?;
+        }
         match px.kind {
-            PixelKind::Rgb8 => self.rec.log(
-                entity,
-                &[
-                    &rerun::Image::from_rgb24(data, size) as &dyn AsComponents,
-                    &plane,
-                ],
-            )?,
-            PixelKind::Mono8 => self.rec.log(
-                entity,
-                &[
-                    &rerun::Image::from_l8(data, size) as &dyn AsComponents,
-                    &plane,
-                ],
-            )?,
-            PixelKind::DepthF32M => self.rec.log(
-                entity,
-                &[
-                    &DepthImage::from_data_type_and_bytes(data, size, ChannelDatatype::F32)
-                        .with_meter(1.0) as &dyn AsComponents,
-                    &plane,
-                ],
-            )?,
-            PixelKind::DepthU16Mm => self.rec.log(
-                entity,
-                &[
-                    &DepthImage::from_data_type_and_bytes(data, size, ChannelDatatype::U16)
-                        .with_meter(1000.0) as &dyn AsComponents,
-                    &plane,
-                ],
-            )?,
+            PixelKind::Rgb8 | PixelKind::Mono8 => {
+                let image =
+                    EncodedImage::new(encode::jpeg(&px)?).with_media_type(MediaType::jpeg());
+                self.rec.log(entity, &image)?;
+            }
+            PixelKind::DepthF32M | PixelKind::DepthU16Mm => {
+                let mm = encode::depth_mm(&px)?;
+                let depth = EncodedDepthImage::new(encode::png16(&mm, px.width, px.height)?)
+                    .with_media_type(MediaType::png())
+                    .with_meter(1000.0f32);
+                self.rec.log(entity, &depth)?;
+            }
         }
         Ok(px)
     }
 
     /// A pose message as a named frame `frame_name` under its header frame, with axes.
-    fn log_pose(&mut self, name: &str, p: &PoseStamped, frame_name: &str) -> Result<(), VizError> {
+    fn log_pose(
+        &mut self,
+        entity: &str,
+        p: &PoseStamped,
+        frame_name: &str,
+    ) -> Result<(), VizError> {
         let parent = frame_or(&p.header.frame_id, msgs::frames::BASE_LINK);
-        self.log_named_pose(name, parent, frame_name, &Pose::from_pose(&p.pose))
+        self.log_named_pose(entity, parent, frame_name, &Pose::from_pose(&p.pose))
     }
 
+    /// `frame_name` under `parent` at `pose`, with axes (named for the perception target only:
+    /// the calibration's and the commands' names would crowd the robot).
     fn log_named_pose(
         &mut self,
-        name: &str,
+        entity: &str,
         parent: &str,
         frame_name: &str,
         pose: &Pose,
     ) -> Result<(), VizError> {
-        let entity = format!("world/poses/{name}");
-        self.rec
-            .log(entity.as_str(), &transform(parent, frame_name, pose))?;
+        self.rec.log(entity, &transform(parent, frame_name, pose))?;
+        let named = frame_name.starts_with("perception/");
+        let axes = format!("{entity}/axes");
+        self.anchor(&axes)?;
         self.rec.log(
-            format!("{entity}/axes"),
+            axes,
             &[
                 &CoordinateFrame::new(frame_name) as &dyn AsComponents,
-                &TransformAxes3D::new(POSE_AXES_M).with_show_frame(true),
+                &TransformAxes3D::new(POSE_AXES_M).with_show_frame(named),
             ],
         )?;
         Ok(())
@@ -807,6 +1443,19 @@ impl Viz {
         let text = format!("[{}/{}] {kind}{reason}: {}", e.task, e.state, e.text);
         self.rec
             .log("log/task", &TextLog::new(text).with_level(level))?;
+        let lane = format!("{}/{}", e.task, e.state);
+        if self.task_state.as_deref() != Some(lane.as_str()) {
+            self.rec.log(STATES, &StateChange::single(lane.as_str()))?;
+            self.task_state = Some(lane);
+            if let Some(site) = &self.site {
+                let tool = self.tf.lookup(msgs::frames::MAP, msgs::frames::TOOL0);
+                if let Some(next) =
+                    RodBelief::after_state(self.rod.as_ref(), &e.state, site, tool.as_ref())
+                {
+                    self.set_rod(next)?;
+                }
+            }
+        }
         Ok(())
     }
 
@@ -819,7 +1468,7 @@ impl Viz {
                 .map(|(_, p)| p)
         };
         let (a, b) = (find(m.stamp_a), find(m.stamp_b));
-        let fallback = self.wrist_size.unwrap_or_else(|| {
+        let fallback = self.wrist.map(|(_, size)| size).unwrap_or_else(|| {
             // No camera info yet: the keypoints' extent.
             let max = |kp: &[f32], k: usize| {
                 kp.iter()
@@ -835,9 +1484,15 @@ impl Viz {
         let canvas = convert::match_canvas(m, a, b, fallback)?;
         let n_in = canvas.inliers.len();
         let n_out = canvas.rejected.len();
+        let px = Pixels {
+            width: canvas.width,
+            height: canvas.height,
+            kind: PixelKind::Rgb8,
+            data: canvas.rgb,
+        };
         self.rec.log(
             MATCHES_IMAGE,
-            &rerun::Image::from_rgb24(canvas.rgb, [canvas.width, canvas.height]),
+            &EncodedImage::new(encode::jpeg(&px)?).with_media_type(MediaType::jpeg()),
         )?;
         let segs = |v: &[[[f32; 2]; 2]]| v.iter().map(|s| s.to_vec()).collect::<Vec<_>>();
         self.rec.log(
@@ -925,14 +1580,18 @@ impl Viz {
         Ok(())
     }
 
-    /// Logs what is still pending (the executed path) and flushes the stream.
+    /// Logs what is still pending (a depth capture without its colour, the executed path) and
+    /// flushes the stream.
     ///
     /// # Errors
     /// [`VizError::Rerun`], [`VizError::Flush`].
     pub fn flush(&mut self) -> Result<(), VizError> {
+        let t = self.last_time_ns;
+        self.set_time(t);
+        if let Some((stamp, depth)) = self.pending_depth.take() {
+            self.log_capture(&depth, stamp)?;
+        }
         if self.executed_dirty {
-            let t = self.last_time_ns;
-            self.set_time(t);
             self.log_executed(t)?;
         }
         self.rec
@@ -948,5 +1607,30 @@ impl Viz {
         self.flush()?;
         self.rec.disconnect();
         Ok(self.stats)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hook_goals_and_grasps_are_told_apart_by_their_axes() {
+        // Hook goal: z up, y along the wire (rotated 30 deg about z).
+        let (s, c) = (15f64.to_radians().sin(), 15f64.to_radians().cos());
+        assert!(is_hook_goal([0.0, 0.0, s, c]));
+        // Grasp: tool0 x up (the rod), z horizontal: Ry(-90 deg).
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        assert!(!is_hook_goal([0.0, -h, 0.0, h]));
+        assert_eq!(
+            axis_of([0.0, -h, 0.0, h], 0).map(|v| v.round()),
+            [0.0, 0.0, 1.0]
+        );
+        // A wire cylinder along the goal's y, a truth cylinder along the pose's x.
+        let y = axis_of(along_y([0.0, 0.0, 0.0, 1.0]), 2);
+        let x = axis_of(along_x([0.0, 0.0, 0.0, 1.0]), 2);
+        for (g, w) in y.iter().chain(&x).zip([0.0, 1.0, 0.0, 1.0, 0.0, 0.0]) {
+            assert!((g - w).abs() < 1e-12, "{y:?} {x:?}");
+        }
     }
 }
