@@ -12,6 +12,7 @@
 //! | [`service`] | [`ServiceClient`]: a raw ROS 2 service client, [`ServiceMapping`] Cyclone or Fast DDS |
 //! | [`graph`] | [`Endpoint`]: the writers and readers of a topic, local and discovered |
 //! | [`names`] | ROS 2 names on DDS: `rt/<topic>`, `pkg::msg::dds_::Type_`, `rq/`/`rr/` services |
+//! | [`remap`] | [`Remap`]: vendor topics, frames, joint names, units and encodings to rodlog's (TOML remap files) |
 //! | [`qos`] | [`Qos`] and the presets real drivers use ([`Qos::for_subscription`], [`Qos::for_publisher`]) |
 //! | [`error`] | [`Ros2Error`] |
 //!
@@ -44,6 +45,7 @@ pub mod node;
 pub mod publisher;
 pub mod qos;
 mod raw;
+pub mod remap;
 pub mod service;
 pub mod subscription;
 
@@ -52,5 +54,6 @@ pub use graph::{Endpoint, EndpointKind};
 pub use node::{DiscoveryRange, Node, NodeOptions};
 pub use publisher::Publisher;
 pub use qos::{Durability, Qos, Reliability};
+pub use remap::{Remap, RemapError, Route};
 pub use service::{ServiceClient, ServiceMapping};
 pub use subscription::{Received, Subscription, TopicCounters};

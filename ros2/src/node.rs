@@ -168,6 +168,14 @@ impl Node {
         self.domain_id
     }
 
+    /// The GUID prefix of this node's participant (the first 12 bytes of every
+    /// [`Endpoint::guid`] it owns).
+    pub fn guid_prefix(&self) -> [u8; 12] {
+        let mut p = [0_u8; 12];
+        p.copy_from_slice(&self.participant.guid().to_bytes()[..12]);
+        p
+    }
+
     /// The discovery range in force.
     pub fn discovery_range(&self) -> DiscoveryRange {
         self.discovery
@@ -207,6 +215,7 @@ impl Node {
             reader,
             self.local.clone(),
             guid.to_bytes(),
+            self.guid_prefix(),
         )
     }
 
