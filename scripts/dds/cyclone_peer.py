@@ -18,6 +18,9 @@ Modes (domain from --domain, else ROS_DOMAIN_ID, else 0):
   serve-trigger     a std_srvs/Trigger server on service --topic, as rmw_cyclonedds maps it:
                     rq/<service>Request and rr/<service>Reply, each payload starting with the
                     16-byte header {uint64 client_id, int64 sequence} the reply echoes
+  sim-client        a client of `rodlog sim --ros2`: wait for --count JointStates on
+                    /joint_states, publish one std_msgs/Empty on /camera/trigger (reliable),
+                    then wait for the wrist image on /camera/color/image_raw; report both
 
 Publishers wait up to --wait-match s for --readers matched readers, then --settle s (the
 readers must match the writer too), before the first message, and --linger s after the last
@@ -54,7 +57,7 @@ ANY_INTERFACE_URI = "<CycloneDDS><Domain>" + BUFFERS + "</Domain></CycloneDDS>"
 def parse_args():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("mode", choices=["pub-joint-states", "pub-image", "sub", "bench-pub", "bench-sub",
-                                   "serve-trigger"])
+                                   "serve-trigger", "sim-client"])
     p.add_argument("--domain", type=int, default=None)
     p.add_argument("--topic", default=None, help="ROS topic name, e.g. /joint_states")
     p.add_argument("--type", default="joint_state", choices=["joint_state", "image", "tf"])
@@ -177,6 +180,11 @@ class TriggerResponse(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Response
     sequence: int64
     success: bool
     message: str
+
+
+@dataclass
+class Empty(IdlStruct, typename="std_msgs::msg::dds_::Empty_"):
+    structure_needs_at_least_one_member: uint8
 
 
 TYPES = {"joint_state": JointState, "image": Image, "tf": TFMessage}
@@ -464,6 +472,34 @@ def run_serve_trigger(dp: DomainParticipant):
     report({"mode": "serve-trigger", "served": served})
 
 
+def run_sim_client(dp: DomainParticipant):
+    """Joint states from the simulator node, then a capture this process asks for."""
+    be = qos("best-effort", "volatile", 10)
+    js_reader = DataReader(dp, Topic(dp, "rt/joint_states", JointState), be)
+    img_reader = DataReader(dp, Topic(dp, "rt/camera/color/image_raw", Image), be)
+    trigger = DataWriter(dp, Topic(dp, "rt/camera/trigger", Empty), qos("reliable", "volatile", 10))
+    end = time.monotonic() + ARGS.timeout
+    joint_states = []
+    while time.monotonic() < end and len(joint_states) < ARGS.count:
+        for s in js_reader.take(N=64):
+            if hasattr(s, "header") and s.sample_info.valid_data:
+                joint_states.append({"stamp": [s.header.stamp.sec, s.header.stamp.nanosec],
+                                     "name": list(s.name), "position": list(s.position)})
+        time.sleep(0.005)
+    matched = wait_for_readers([trigger], 1, max(0.0, end - time.monotonic()))
+    time.sleep(ARGS.settle)
+    triggered_ns = now_ns()
+    trigger.write(Empty(structure_needs_at_least_one_member=0))
+    images = []
+    while time.monotonic() < end and not images:
+        for s in img_reader.take(N=8):
+            if hasattr(s, "header") and s.sample_info.valid_data:
+                images.append(describe(Image, s))
+        time.sleep(0.005)
+    report({"mode": "sim-client", "joint_states": joint_states, "trigger_matched": matched,
+            "triggered_ns": triggered_ns, "images": images})
+
+
 def main():
     domain = ARGS.domain if ARGS.domain is not None else int(os.environ.get("ROS_DOMAIN_ID", "0"))
     dp = DomainParticipant(domain)
@@ -487,6 +523,8 @@ def main():
         run_bench_pub(dp)
     elif ARGS.mode == "serve-trigger":
         run_serve_trigger(dp)
+    elif ARGS.mode == "sim-client":
+        run_sim_client(dp)
     else:
         run_bench_sub(dp)
 
