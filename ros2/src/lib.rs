@@ -9,6 +9,7 @@
 //! | [`node`] | [`Node`], [`NodeOptions`], [`DiscoveryRange`]: one DDS participant per node, `ROS_DOMAIN_ID` |
 //! | [`subscription`] | [`Subscription`] yielding [`Received`] (raw CDR, source stamp, arrival instant); [`TopicCounters`] |
 //! | [`publisher`] | [`Publisher`]: `publish(&[u8])` of CDR with its encapsulation header |
+//! | [`action`] | [`FollowJointTrajectoryClient`]: a raw FollowJointTrajectory action client (joint_trajectory_controller) |
 //! | [`service`] | [`ServiceClient`]: a raw ROS 2 service client, [`ServiceMapping`] Cyclone or Fast DDS |
 //! | [`graph`] | [`Endpoint`]: the writers and readers of a topic, local and discovered |
 //! | [`names`] | ROS 2 names on DDS: `rt/<topic>`, `pkg::msg::dds_::Type_`, `rq/`/`rr/` services |
@@ -38,6 +39,7 @@
 //! tests and the Cyclone peer wait for the match, then settle, before sending.
 #![warn(missing_docs)]
 
+pub mod action;
 pub mod error;
 pub mod graph;
 pub mod names;
@@ -49,6 +51,7 @@ pub mod remap;
 pub mod service;
 pub mod subscription;
 
+pub use action::{ActionEvent, FollowJointTrajectoryClient};
 pub use error::Ros2Error;
 pub use graph::{Endpoint, EndpointKind};
 pub use node::{DiscoveryRange, Node, NodeOptions};

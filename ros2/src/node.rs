@@ -274,7 +274,8 @@ impl Node {
     }
 
     /// A raw client of `service` (absolute, or relative to the namespace) of type `srv_type`
-    /// (`pkg/srv/Name`), matching replies as the server's middleware does (`mapping`).
+    /// (`pkg/srv/Name`, or an action's `pkg/action/Name_SendGoal`), matching replies as the
+    /// server's middleware does (`mapping`).
     ///
     /// # Errors
     /// [`Ros2Error::InvalidName`], [`Ros2Error::InvalidServiceType`],
@@ -287,8 +288,7 @@ impl Node {
     ) -> Result<ServiceClient, Ros2Error> {
         let ros_service = names::resolve(&self.namespace, service)?;
         let (rq, rr) = names::dds_service_topics(&ros_service)?;
-        let types = srv_type
-            .contains("/srv/")
+        let types = (srv_type.contains("/srv/") || srv_type.contains("/action/"))
             .then(|| {
                 Some((
                     names::dds_type(&format!("{srv_type}_Request")).ok()?,
