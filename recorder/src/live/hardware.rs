@@ -14,6 +14,7 @@ use msgs::{Msg, RobotDuration, RobotTime};
 use crate::live::clock::LiveClock;
 use crate::live::feed::{Feed, Incoming, InputCounts, LiveSource, Pushed, TopicCount};
 use crate::live::{LiveError, LiveOptions, RUNTIME, SinkItem, SinkThread, build_runtime, item};
+use crate::mcap_writer::MetadataRecord;
 use crate::runner::{Envelope, Popped, Runner, StageStats, rosout};
 use crate::scheduler::{CLOCK_PERIOD, ChannelCache, SinkFanout};
 use crate::session::StopCondition;
@@ -44,6 +45,11 @@ pub trait LiveOutput: Send {
 
     /// The run is over (called once, on every exit path).
     fn finish(&mut self) {}
+
+    /// Metadata records to write at the end of the recording (after [`LiveOutput::finish`]).
+    fn records(&mut self) -> Vec<MetadataRecord> {
+        Vec::new()
+    }
 }
 
 /// A live run (module docs of [`crate::live`]).
@@ -292,10 +298,18 @@ pub fn run_live(
     for t in threads {
         let _joined = t.join();
     }
+    let mut records = Vec::new();
     if let Some(o) = output.as_deref_mut() {
         o.finish();
+        records = o.records();
     }
-    let record_sent = runtime.block_on(tx.send(SinkItem::Metadata(counts.record())));
+    records.push(counts.record());
+    let record_sent = runtime.block_on(async {
+        for r in records {
+            tx.send(SinkItem::Metadata(r)).await?;
+        }
+        Ok::<(), tokio::sync::mpsc::error::SendError<SinkItem>>(())
+    });
     drop(tx);
     let written = sink.close();
     let (ended, at, payload_bytes) = outcome?;
