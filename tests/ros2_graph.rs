@@ -11,16 +11,16 @@
 //! the peer's localhost configuration); each test has its own domain (51..=59). Without the
 //! venv a test skips with a notice, never in CI (`RODLOG_NO_SKIP=1`).
 
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use msgs::Msg;
 use replay::{McapReader, ReadFilter};
-use serde_json::Value;
 
 #[path = "support/cli.rs"]
 mod cli;
+#[path = "support/graph.rs"]
+mod graph;
+use graph::{hex, peer_report, spawn_peer, spawn_rodlog, wait};
 
 const JOINT_NAMES: [&str; 6] = [
     "shoulder_joint",
@@ -30,69 +30,6 @@ const JOINT_NAMES: [&str; 6] = [
     "wrist2_joint",
     "wrist3_joint",
 ];
-
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// `rodlog ARGS` on domain `domain`, loopback only, started in the background.
-fn spawn_rodlog(domain: u16, args: &[&str]) -> Child {
-    Command::new(env!("CARGO_BIN_EXE_rodlog"))
-        .current_dir(repo())
-        .args(args)
-        .env("ROS_DOMAIN_ID", domain.to_string())
-        .env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start rodlog")
-}
-
-/// Waits for `child` up to `within`; kills it (this test started it) when it overruns.
-fn wait(child: Child, within: Duration, what: &str) -> Output {
-    let end = Instant::now() + within;
-    let mut child = child;
-    loop {
-        match child.try_wait().expect("poll child") {
-            Some(_) => return child.wait_with_output().expect("collect output"),
-            None if Instant::now() > end => {
-                let _ = child.kill();
-                let out = child.wait_with_output().expect("collect output");
-                panic!(
-                    "{what} did not finish within {within:?}; stderr: {}",
-                    String::from_utf8_lossy(&out.stderr)
-                );
-            }
-            None => std::thread::sleep(Duration::from_millis(50)),
-        }
-    }
-}
-
-fn spawn_peer(python: &Path, out: &Path, args: &[&str]) -> Child {
-    let _ = std::fs::remove_file(out);
-    Command::new(python)
-        .arg(repo().join("scripts/dds/cyclone_peer.py"))
-        .args(args)
-        .arg("--out")
-        .arg(out)
-        .env_remove("CYCLONEDDS_URI")
-        .stdout(Stdio::null())
-        .spawn()
-        .expect("start cyclone_peer.py")
-}
-
-fn peer_report(child: Child, out: &Path, within: Duration) -> Value {
-    let status = wait(child, within, "cyclone_peer.py").status;
-    assert!(status.success(), "cyclone_peer.py failed: {status}");
-    let text = std::fs::read_to_string(out).expect("peer report");
-    serde_json::from_str(&text).expect("peer JSON")
-}
-
-fn hex(s: &str) -> Vec<u8> {
-    (0..s.len() / 2)
-        .map(|i| u8::from_str_radix(&s[2 * i..2 * i + 2], 16).expect("hex"))
-        .collect()
-}
 
 /// Pixels of the peer's image `i`: byte k is ((k + i) * 7) mod 251 (cyclone_peer.py).
 fn peer_image_data(i: u32, n: usize) -> Vec<u8> {
@@ -420,4 +357,42 @@ fn record_ros2_against_sim_ros2_follows_its_clock_and_replays_identically() {
         "replay --check: {text}{}",
         String::from_utf8_lossy(&check.stderr)
     );
+}
+
+#[test]
+fn record_ros2_ends_cleanly_on_sigint() {
+    let test = "record_ros2_ends_cleanly_on_sigint";
+    if testkit::venv_python_with("cyclonedds", test).is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let rec = dir.path().join("sigint.mcap");
+    let rec_s = rec.display().to_string();
+    // No --duration: the `ros2` scenario runs for a day unless stopped.
+    let recorder = spawn_rodlog(54, &["record", "--ros2", "--out", &rec_s]);
+    std::thread::sleep(Duration::from_secs(4));
+    let pid = recorder.id().to_string();
+    let sent = std::process::Command::new("kill")
+        .args(["-INT", &pid])
+        .status()
+        .expect("kill -INT");
+    assert!(sent.success());
+    let out = wait(
+        recorder,
+        Duration::from_secs(20),
+        "rodlog record --ros2 after SIGINT",
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && stdout.contains("ended: Interrupted"),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let info = cli::rodlog(&["info", &rec_s]);
+    let text = String::from_utf8_lossy(&info.stdout);
+    assert!(
+        info.status.success() && text.contains("recovered:   no (file intact)"),
+        "{text}"
+    );
+    assert!(text.contains("/clock"), "{text}");
 }
