@@ -30,6 +30,12 @@ pub struct RecordArgs {
     /// With --ros2: the ROS 2 domain (default: ROS_DOMAIN_ID, else 0).
     #[arg(long)]
     pub domain: Option<u16>,
+    /// With --ros2: send the stages' commands to the robot (arm, lift, base, clamp, camera
+    /// trigger). Without it rodlog records and computes, and has no writer on any command
+    /// topic. Software stop on /estop, holds on stale joint states, a stale camera or a driver
+    /// status that does not allow motion (README, "Running on the real robot").
+    #[arg(long)]
+    pub allow_motion: bool,
     /// Override the scenario's seed.
     #[arg(long)]
     pub seed: Option<u64>,
@@ -111,8 +117,8 @@ pub fn record_plan(args: &RecordArgs) -> anyhow::Result<compose::Plan> {
         (None, true) => "ros2",
         (None, false) => bail!("--scenario is required (or --ros2 to record a ROS 2 graph)"),
     };
-    if !args.ros2 && (!args.remap.is_empty() || args.domain.is_some()) {
-        bail!("--remap and --domain need --ros2");
+    if !args.ros2 && (!args.remap.is_empty() || args.domain.is_some() || args.allow_motion) {
+        bail!("--remap, --domain and --allow-motion need --ros2");
     }
     let mut sets = Vec::new();
     if args.ros2 {

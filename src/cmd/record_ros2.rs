@@ -43,6 +43,7 @@ pub fn run(args: &RecordArgs, plan: &compose::Plan) -> anyhow::Result<()> {
         stop: None,
     };
     let run = Ros2RunOptions {
+        allow_motion: args.allow_motion,
         stop: if args.until_done {
             plan.task_end()
         } else {
@@ -51,8 +52,13 @@ pub fn run(args: &RecordArgs, plan: &compose::Plan) -> anyhow::Result<()> {
         ..Ros2RunOptions::default()
     };
     eprintln!(
-        "rodlog: joining the ROS 2 graph (Ctrl-C ends the recording cleanly) -> {}",
-        out.display()
+        "rodlog: joining the ROS 2 graph (Ctrl-C ends the recording cleanly) -> {}; {}",
+        out.display(),
+        if args.allow_motion {
+            "MOTION ALLOWED: commands go to the robot (software stop: any message on /estop)"
+        } else {
+            "no motion: commands are recorded, not sent"
+        }
     );
     let summary = record(plan, &options, run, extra_sinks)
         .with_context(|| format!("recording the ROS 2 graph to {}", out.display()))?;
@@ -66,6 +72,25 @@ pub fn run(args: &RecordArgs, plan: &compose::Plan) -> anyhow::Result<()> {
         out.display(),
         live.ended,
     );
+    text.push_str(&format!(
+        "  command writers: {}\n",
+        if summary.command_writers.is_empty() {
+            "none".to_owned()
+        } else {
+            summary.command_writers.join(", ")
+        }
+    ));
+    let m = &summary.motion;
+    text.push_str(&format!(
+        "  commands sent {}, withheld {}, lost in the queue {}, stops {}; graph outputs {} ({} dropped); robot_state TF to the graph: {}\n",
+        m.sent, m.withheld, m.queue_full, m.stops, m.outputs, m.outputs_dropped, summary.robot_tf
+    ));
+    if let Some((gap, checks, holds)) = summary.watchdog {
+        text.push_str(&format!(
+            "  watchdog: {checks} checks, worst gap {:.1} ms, {holds} holds\n",
+            gap.as_secs_f64() * 1e3
+        ));
+    }
     for s in &summary.subscriptions {
         text.push_str(&format!("  subscribed {s}\n"));
     }

@@ -4,6 +4,8 @@
 //! |---|---|
 //! | this one | [`Ros2Config`] (`world = "ros2"`, keys `ros2.*`), [`Ros2World`] (the config with its remap files loaded) |
 //! | [`record`] | [`record::record`]: subscribe, stamp, run the pipeline live ([`recorder::run_live`]), record |
+//! | [`motion`] | the command path: which outputs leave the process (`--allow-motion`), how |
+//! | [`safety`] | e-stop, stale data, driver status: when motion holds; the watchdog |
 //! | [`source`] | [`source::TopicSource`]: one DDS subscription as a live source, through the remap |
 //! | [`sim_node`] | [`sim_node::run`]: the simulator as a ROS 2 node in real time (`rodlog sim --ros2`) |
 //!
@@ -23,7 +25,9 @@ use scenario::{ParamError, Reader};
 
 use crate::error::ComposeError;
 
+pub mod motion;
 pub mod record;
+pub mod safety;
 pub mod sim_node;
 pub mod source;
 
@@ -79,6 +83,10 @@ pub struct Ros2Config {
     pub merge_delay: RobotDuration,
     /// Messages the runtime may fall behind by before inputs are dropped.
     pub input_capacity: usize,
+    /// With motion: no `/joint_states` for longer than this (robot time) holds.
+    pub joint_states_deadline: RobotDuration,
+    /// With motion: a capture without its colour image after this much robot time holds.
+    pub capture_deadline: RobotDuration,
 }
 
 impl Default for Ros2Config {
@@ -92,6 +100,8 @@ impl Default for Ros2Config {
             use_sim_time: SimTime::Auto,
             merge_delay: RobotDuration::from_millis(30),
             input_capacity: 4096,
+            joint_states_deadline: safety::JOINT_STATES_DEADLINE,
+            capture_deadline: safety::CAPTURE_DEADLINE,
         }
     }
 }
@@ -189,6 +199,16 @@ impl Ros2Config {
             1,
             "messages the runtime may fall behind by before inputs are dropped",
         )?;
+        let joint_states_deadline = s.millis(
+            "joint_states_deadline_ms",
+            d.joint_states_deadline,
+            "with --allow-motion: no /joint_states for longer than this (robot time) holds motion",
+        )?;
+        let capture_deadline = s.seconds(
+            "capture_deadline_s",
+            d.capture_deadline,
+            "with --allow-motion: a capture without its image after this much robot time holds motion",
+        )?;
         Ok(Self {
             domain_id,
             discovery,
@@ -198,6 +218,8 @@ impl Ros2Config {
             use_sim_time,
             merge_delay,
             input_capacity,
+            joint_states_deadline,
+            capture_deadline,
         })
     }
 

@@ -28,7 +28,9 @@ use recorder::{
 };
 use ros2::{Node, Qos, Route};
 
-use super::source::{ClockSource, TopicSource};
+use super::motion::{MotionCounts, command_path};
+use super::safety::{ESTOP, Safety, StatusSource, Watchdog};
+use super::source::{ClockSource, Hook, TopicSource};
 use super::{Ros2World, SimTime};
 use crate::error::ComposeError;
 use crate::plan::Plan;
@@ -63,6 +65,9 @@ pub const ROS2_RECORD: &str = "ros2";
 
 /// How to run on the graph, beyond the plan.
 pub struct Ros2RunOptions {
+    /// Send the stages' commands to the graph (`--allow-motion`; module docs of
+    /// [`super::motion`]). Without it no writer exists on any command topic.
+    pub allow_motion: bool,
     /// End when the task ends (the plan's [`Plan::task_end`]).
     pub stop: Option<StopCondition>,
     /// Sees every popped message after the command path (benchmarks, tests).
@@ -77,6 +82,7 @@ pub struct Ros2RunOptions {
 impl std::fmt::Debug for Ros2RunOptions {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Ros2RunOptions")
+            .field("allow_motion", &self.allow_motion)
             .field("stop", &self.stop)
             .field("settle", &self.settle)
             .field("clock_timeout", &self.clock_timeout)
@@ -87,6 +93,7 @@ impl std::fmt::Debug for Ros2RunOptions {
 impl Default for Ros2RunOptions {
     fn default() -> Self {
         Self {
+            allow_motion: false,
             stop: None,
             observer: None,
             settle: Duration::from_millis(1500),
@@ -104,6 +111,64 @@ pub struct Ros2Summary {
     pub clock: &'static str,
     /// The subscriptions, `vendor topic -> rodlog topic (producer)`.
     pub subscriptions: Vec<String>,
+    /// This node's writers on command topics, as the graph API saw them before the run
+    /// (empty without `--allow-motion`).
+    pub command_writers: Vec<String>,
+    /// Whether robot_state's TF went to the graph (no driver published `/tf`).
+    pub robot_tf: bool,
+    /// The command path's counters.
+    pub motion: MotionCounts,
+    /// The watchdog's worst gap between two checks, its checks and the holds entered
+    /// (with `--allow-motion`).
+    pub watchdog: Option<(Duration, u64, u64)>,
+}
+
+/// This node's own writers on the command topics, under rodlog's and the remap's names
+/// (requests of action and service clients included), from the graph API.
+///
+/// # Errors
+/// An invalid remapped name.
+pub fn local_command_writers(
+    node: &Node,
+    remap: &ros2::Remap,
+) -> Result<Vec<String>, ComposeError> {
+    let mut names: Vec<String> = topics::COMMANDS.iter().map(|t| (*t).to_owned()).collect();
+    let c = &remap.commands;
+    match &c.arm {
+        Some(ros2::remap::ArmCommand::Topic(t)) => names.push(t.clone()),
+        Some(ros2::remap::ArmCommand::Action(a)) => {
+            names.push(format!("{a}/_action/send_goal"));
+            names.push(format!("{a}/_action/cancel_goal"));
+        }
+        None => {}
+    }
+    if let Some(ros2::remap::TriggerCommand::Topic(t)) = &c.camera_trigger {
+        names.push(t.clone());
+    }
+    for t in [&c.lift, &c.base, &c.clamp, &c.light].into_iter().flatten() {
+        names.push(t.clone());
+    }
+    let services: Vec<String> = match &c.camera_trigger {
+        Some(ros2::remap::TriggerCommand::Services { calls, .. }) => {
+            calls.iter().map(|(s, _)| s.clone()).collect()
+        }
+        _ => Vec::new(),
+    };
+    let mut found = Vec::new();
+    let all = node.endpoints();
+    for name in names.iter().chain(&services) {
+        let dds = ros2::names::dds_topic(name).map_err(ros2_err(name))?;
+        let (rq, _) = ros2::names::dds_service_topics(name).map_err(ros2_err(name))?;
+        let mine = all.iter().any(|e| {
+            e.local
+                && e.kind == ros2::EndpointKind::Writer
+                && (e.dds_topic == dds || e.dds_topic == rq)
+        });
+        if mine && !found.contains(name) {
+            found.push(name.clone());
+        }
+    }
+    Ok(found)
 }
 
 fn ros2_err(what: &str) -> impl Fn(ros2::Ros2Error) -> ComposeError + '_ {
@@ -142,11 +207,10 @@ pub fn record(
             Qos::SENSOR_SUBSCRIPTION.with_depth(1),
         )
         .map_err(ros2_err(topics::CLOCK))?;
-    if world.config.use_sim_time == SimTime::Auto {
-        let settle_until = Instant::now() + run.settle;
-        while Instant::now() < settle_until {
-            std::thread::sleep(Duration::from_millis(20));
-        }
+    // Discovery settles: whether the graph has /clock and /tf writers is known after it.
+    let settle_until = Instant::now() + run.settle;
+    while Instant::now() < settle_until {
+        std::thread::sleep(Duration::from_millis(20));
     }
     let graph_clock = match world.config.use_sim_time {
         SimTime::On => true,
@@ -165,8 +229,33 @@ pub fn record(
         drop(clock_sub);
         LiveClock::wall(1)
     };
+    let driver_tf = node
+        .writers_on(topics::TF)
+        .map_err(ros2_err(topics::TF))?
+        .iter()
+        .any(|e| !e.local);
+    let safety = run.allow_motion.then(|| {
+        Safety::with_deadlines(
+            remap.status.clone(),
+            world.config.joint_states_deadline,
+            world.config.capture_deadline,
+        )
+    });
     // Then the inputs; their sources start reading as soon as the run starts, right after.
-    let routes: Vec<Route> = remap.routes_with_identity(&GRAPH_INPUTS, GRAPH_PRODUCER);
+    let mut routes: Vec<Route> = remap.routes_with_identity(&GRAPH_INPUTS, GRAPH_PRODUCER);
+    if safety.is_some() {
+        routes.push(Route {
+            vendor: ESTOP.to_owned(),
+            rodlog: ESTOP,
+            type_name: <msgs::std_msgs::Empty as msgs::RosMessage>::TYPE_NAME,
+            producer: "estop".to_owned(),
+            qos: ros2::remap::QosClass::Sensor,
+            encoding: None,
+            depth_scale: None,
+            origin: ros2::remap::IDENTITY_ORIGIN.to_owned(),
+            frames: std::collections::BTreeMap::new(),
+        });
+    }
     let mut subscriptions = Vec::new();
     for route in routes {
         let mut sub = node
@@ -177,7 +266,58 @@ pub fn record(
             "{} -> {} ({})",
             route.vendor, route.rodlog, route.producer
         ));
-        sources.push(Box::new(TopicSource::new(sub, route, Arc::clone(&remap))));
+        let mut source = TopicSource::new(sub, route.clone(), Arc::clone(&remap));
+        if let Some(s) = &safety {
+            let s = Arc::clone(s);
+            let hook: Option<Hook> = match route.rodlog {
+                topics::JOINT_STATES => Some(Arc::new(move |_: &msgs::Msg, t: msgs::RobotTime| {
+                    s.joint_states(t)
+                })),
+                topics::CAMERA_COLOR_IMAGE => {
+                    Some(Arc::new(move |_: &msgs::Msg, _: msgs::RobotTime| s.image()))
+                }
+                ESTOP => Some(Arc::new(move |_: &msgs::Msg, _: msgs::RobotTime| s.estop())),
+                _ => None,
+            };
+            if let Some(h) = hook {
+                source = source.with_hook(h);
+            }
+        }
+        sources.push(Box::new(source));
+    }
+    if let Some(s) = &safety {
+        for status in &remap.status {
+            sources.push(Box::new(
+                StatusSource::new(&node, status.clone(), Arc::clone(s))
+                    .map_err(ros2_err(&status.topic))?,
+            ));
+        }
+    }
+    // The command path: writers on command topics only with --allow-motion.
+    let (mut outbox, commands) = command_path(
+        &node,
+        Arc::clone(&remap),
+        run.allow_motion,
+        !driver_tf,
+        safety.clone(),
+    )?;
+    let motion_counts = outbox.counts();
+    outbox.set_observer(run.observer);
+    let command_writers = local_command_writers(&node, &remap)?;
+    if !run.allow_motion && !command_writers.is_empty() {
+        return Err(ComposeError::Ros2 {
+            what: "the command path".to_owned(),
+            source: Box::new(ros2::Ros2Error::CreateEndpoint {
+                topic: command_writers.join(","),
+                what: "writer",
+                reason: "a command writer exists without --allow-motion (a bug: refusing to run)"
+                    .to_owned(),
+            }),
+        });
+    }
+    sources.push(Box::new(commands));
+    if let Some(s) = &safety {
+        sources.push(Box::new(Watchdog::new(Arc::clone(s), outbox.sender())));
     }
     let clock_name = if graph_clock { "graph /clock" } else { "wall" };
 
@@ -188,7 +328,10 @@ pub fn record(
         .with("node", node.name())
         .with("clock", clock_name)
         .with("pipeline", world.config.pipeline.name())
-        .with("subscriptions", subscriptions.join("; "));
+        .with("subscriptions", subscriptions.join("; "))
+        .with("allow_motion", run.allow_motion)
+        .with("command_writers", command_writers.join(","))
+        .with("robot_tf_to_graph", !driver_tf);
     ros = ros.with(
         "remap",
         remap
@@ -206,8 +349,17 @@ pub fn record(
             text.clone().into_bytes(),
         ));
     }
-    let pool = options
-        .threads
+    // With motion, the watchdog and the command path keep a core: stages (the calibration's
+    // rayon work) get the others.
+    let threads = options.threads.or_else(|| {
+        run.allow_motion.then(|| {
+            std::thread::available_parallelism()
+                .map_or(1, std::num::NonZeroUsize::get)
+                .saturating_sub(1)
+                .max(1)
+        })
+    });
+    let pool = threads
         .map(|threads| {
             rayon::ThreadPoolBuilder::new()
                 .num_threads(threads.max(1))
@@ -234,7 +386,7 @@ pub fn record(
         clock,
         duration: plan.scenario().duration,
         stop: run.stop,
-        output: run.observer,
+        output: Some(Box::new(outbox)),
         clock_timeout: graph_clock.then_some(run.clock_timeout),
         options: LiveOptions {
             tick: Duration::from_millis(5),
@@ -254,9 +406,16 @@ pub fn record(
         source: Box::new(source),
     })?;
     drop(node);
+    let motion = *motion_counts
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
     Ok(Ros2Summary {
         live,
         clock: clock_name,
         subscriptions,
+        command_writers,
+        robot_tf: !driver_tf,
+        motion,
+        watchdog: safety.map(|s| s.watchdog_figures()),
     })
 }

@@ -26,7 +26,12 @@ pub struct TopicSource {
     remap: Arc<Remap>,
     channel: Arc<Channel>,
     log_channel: Arc<Channel>,
+    hook: Option<Hook>,
 }
+
+/// Called with every message a [`TopicSource`] decodes and its robot time of arrival (the
+/// safety monitor's view of `/joint_states`, the camera and the e-stop).
+pub type Hook = Arc<dyn Fn(&Msg, RobotTime) + Send + Sync>;
 
 impl std::fmt::Debug for TopicSource {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -53,7 +58,15 @@ impl TopicSource {
             remap,
             channel,
             log_channel,
+            hook: None,
         }
+    }
+
+    /// Calls `hook` with every message decoded, right after it was stamped.
+    #[must_use]
+    pub fn with_hook(mut self, hook: Hook) -> Self {
+        self.hook = Some(hook);
+        self
     }
 
     /// The envelope of one received payload: converted, or undecoded (given to no stage,
@@ -113,6 +126,9 @@ impl LiveSource for TopicSource {
             };
             let t = feed.now();
             let (env, problem) = self.envelope(r.cdr, t);
+            if let (Some(hook), Some(msg)) = (&self.hook, &env.msg) {
+                hook(msg, t);
+            }
             if let Some(reason) = problem {
                 feed.counts().update(topic, |c| c.undecodable += 1);
                 if !warned {
