@@ -26,6 +26,8 @@ enum Command {
     Info(cmd::info::InfoArgs),
     /// Run a scenario through the pipeline and record it (MCAP).
     Record(cmd::record::RecordArgs),
+    /// The simulator as a ROS 2 node in real time (`--ros2`): sensors, /clock, /sim truth; commands from any node.
+    Sim(cmd::sim::SimArgs),
     /// Replay a recording through the current pipeline: check, what-if.
     Replay(cmd::replay::ReplayArgs),
     /// Calibration tools: hand-eye from pose files, image matching.
@@ -54,6 +56,7 @@ fn main() -> ExitCode {
         Command::Info(args) => cmd::info::run(&args),
         Command::Record(args) => cmd::record::run(&args),
         Command::Replay(args) => cmd::replay::run(&args),
+        Command::Sim(args) => cmd::sim::run(&args),
         Command::Calib(command) => cmd::calib::run(&command),
         Command::Import(command) => cmd::import::run(&command),
         Command::Experiment(args) => cmd::experiment::run(&args),

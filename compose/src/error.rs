@@ -55,6 +55,39 @@ pub enum ComposeError {
         /// The recording.
         path: PathBuf,
     },
+    /// A world's driver failed (the simulator node stepping its world).
+    #[error(transparent)]
+    Driver(Box<msgs::DriverError>),
+    /// A remap file is missing, malformed, or in conflict with another.
+    #[error(transparent)]
+    Remap(Box<ros2::RemapError>),
+    /// The ROS 2 transport failed.
+    #[error("ROS 2 ({what}): {source}")]
+    Ros2 {
+        /// What was being done (a topic, joining the domain).
+        what: String,
+        /// Why.
+        source: Box<ros2::Ros2Error>,
+    },
+    /// The pipeline could not be built into a runner.
+    #[error(transparent)]
+    Runner(Box<recorder::RunnerError>),
+    /// A live run failed (the file was finished up to there).
+    #[error("recording {path}: {source}")]
+    Live {
+        /// The output file.
+        path: PathBuf,
+        /// Why.
+        source: Box<recorder::LiveError>,
+    },
+    /// An operation needs another world than the scenario's.
+    #[error("this needs a scenario with world = {wanted:?}, not {world:?}")]
+    WrongWorld {
+        /// The world needed.
+        wanted: &'static str,
+        /// The scenario's world.
+        world: String,
+    },
     /// A recording cannot be judged: it is not a simulator run.
     #[error("{path}: not a simulator recording (world = {world}): nothing to judge against")]
     NotJudgeable {
@@ -79,5 +112,8 @@ boxed_from!(
     Stage(msgs::StageError),
     Script(control::script::ScriptError),
     Sim(sim::SimError),
-    Record(recorder::RecordError)
+    Record(recorder::RecordError),
+    Driver(msgs::DriverError),
+    Remap(ros2::RemapError),
+    Runner(recorder::RunnerError)
 );

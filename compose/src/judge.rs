@@ -461,7 +461,9 @@ pub fn judge(path: &std::path::Path) -> Result<Verdict, ComposeError> {
     // this version no longer knows cannot change the truth it rebuilds).
     let tolerated = scenario.params.keys().map(str::to_owned).collect();
     let plan = crate::Plan::tolerating(&scenario, &tolerated)?;
-    let Some(config) = plan.sim_config() else {
+    // A run on a ROS 2 graph against `rodlog sim --ros2` is judged like a simulator run: the
+    // same scenario gives the simulator node's world, and its /sim truth is recorded.
+    let Some(config) = plan.sim_config().or(plan.remote_sim_config()) else {
         return Err(ComposeError::NotJudgeable {
             path: path.to_path_buf(),
             world: plan.world_kind().name().to_owned(),

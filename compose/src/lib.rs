@@ -12,8 +12,10 @@
 //! 4. [`judge`]: a simulated run judged against the simulator's truth (not a stage: it reads
 //!    `/sim/*`, which no stage may).
 //!
-//! [`data`] says where the public datasets are. [`world`] holds the [`World`] behind which the simulator, the test world and later the ROS 2
-//! graph stand. The binary keeps only flags, progress and printing.
+//! [`data`] says where the public datasets are. [`world`] holds the [`World`] behind which the
+//! simulator, the test world and the ROS 2 graph stand; [`ros2`] runs the pipeline live on a
+//! graph (`record --ros2`) and the simulator as a ROS 2 node (`sim --ros2`). The binary keeps
+//! only flags, progress and printing.
 
 pub mod data;
 pub mod error;
@@ -21,6 +23,7 @@ pub mod judge;
 pub mod load;
 pub mod plan;
 pub mod replaying;
+pub mod ros2;
 pub mod world;
 
 pub use error::ComposeError;
@@ -30,15 +33,23 @@ pub use replaying::ReplaySetup;
 pub use world::World;
 
 /// Records `plan` (its world and pipeline) to `options.out`, with `extra_sinks` beside the
-/// MCAP writer: what `rodlog record` does, and the demo's and the experiments' runs.
+/// MCAP writer: what `rodlog record` does, and the demo's and the experiments' runs. A plan
+/// on a ROS 2 graph records through [`ros2::record::record`] instead (it runs live and
+/// returns its own summary).
 ///
 /// # Errors
-/// Pipeline, world and recording errors.
+/// Pipeline, world and recording errors; [`ComposeError::WrongWorld`] for a ROS 2 plan.
 pub fn record(
     plan: &Plan,
     options: &recorder::RecordOptions,
     extra_sinks: Vec<Box<dyn recorder::Sink>>,
 ) -> Result<recorder::RecordSummary, ComposeError> {
+    if plan.world_kind() == WorldKind::Ros2 {
+        return Err(ComposeError::WrongWorld {
+            wanted: "sim or test_world (record a ros2 plan with compose::ros2::record::record)",
+            world: WorldKind::Ros2.name().to_owned(),
+        });
+    }
     let stages = plan.pipeline()?;
     let header = plan.header()?;
     Ok(recorder::record_with_sinks(

@@ -9,13 +9,17 @@
 //! | composition | `world`, `task`, `perceive.enabled` | always |
 //! | robot_state stage | `robot_state.*` | always |
 //! | simulator | `hour`, `wind.*`, `bump.*`, `robot.*`, `camera.*`, `panoramic.*` | `world = "sim"` |
-//! | calibration stage | `calibration.*` | `world = "sim"` |
-//! | perceive stage | `perceive.*` | `world = "sim"`, `perceive.enabled = true` |
-//! | task stage | `task.*` | `world = "sim"`, `task` = `hang`, `remove`, `check` or `demo` |
+//! | ROS 2 graph | `ros2.*` | `world = "ros2"` |
+//! | calibration stage | `calibration.*` | `world = "sim"`, or `"ros2"` with `ros2.pipeline = "full"` |
+//! | perceive stage | `perceive.*` | as calibration, and `perceive.enabled = true` |
+//! | task stage | `task.*` | as calibration, and `task` = `hang`, `remove`, `check` or `demo` |
 //! | test world | `test_world.*` | `world = "test_world"` |
 //! | arm_exerciser, joint_limit_monitor stages | their own prefix | `world = "test_world"` |
 //!
-//! and refuses any key that no built part consumes ([`scenario::Reader::finish`]). The same
+//! and refuses any key that no built part consumes ([`scenario::Reader::finish`]). One
+//! exception: with `world = "ros2"` the simulator's keys are accepted and not used
+//! ([`Plan::remote_keys`]): the same scenario file drives `rodlog sim --ros2` in another
+//! process, which reads them. The same
 //! plan gives record, replay, the demo, the experiments and the tests their stages
 //! ([`Plan::pipeline`]), in the same order, from the same parameters; that is what makes a
 //! replay reproduce a recording. [`Plan::world`] builds the world the stages run against.
@@ -37,6 +41,7 @@ use scenario::{CommandKind, Decl, KeyProblem, ParamError, Reader, Scenario};
 use sim::{SimConfig, SimWorld};
 
 use crate::error::ComposeError;
+use crate::ros2::{Ros2Config, Ros2Pipeline, Ros2World};
 use crate::world::World;
 
 /// The key choosing the world.
@@ -57,6 +62,8 @@ pub enum WorldKind {
     Sim,
     /// The small test world of the recorder (`arm_sweep`).
     Test,
+    /// A ROS 2 graph (`record --ros2`).
+    Ros2,
 }
 
 impl WorldKind {
@@ -66,6 +73,7 @@ impl WorldKind {
         match self {
             Self::Sim => "sim",
             Self::Test => "test_world",
+            Self::Ros2 => "ros2",
         }
     }
 }
@@ -75,6 +83,12 @@ impl WorldKind {
 enum WorldConfig {
     Sim(Box<SimConfig>),
     Test(TestWorldConfig),
+    Ros2 {
+        config: Ros2Config,
+        /// The simulator configuration the same keys give (`rodlog sim --ros2` reads them;
+        /// the judge rebuilds its truth from them).
+        remote_sim: Box<SimConfig>,
+    },
 }
 
 /// The configured stages of each world.
@@ -89,6 +103,8 @@ enum Stages {
         exerciser: ArmExerciser,
         monitor: JointLimitMonitor,
     },
+    /// `robot_state` only.
+    RobotState,
 }
 
 /// A scenario's run, composed (module docs).
@@ -101,6 +117,7 @@ pub struct Plan {
     stages: Stages,
     declarations: Vec<Decl>,
     tolerated: Vec<KeyProblem>,
+    remote: Vec<String>,
 }
 
 const TASKS: [&str; 6] = ["none", "calibrate", "hang", "remove", "check", "demo"];
@@ -131,11 +148,17 @@ impl Plan {
         let world_name = r.section("").choice(
             WORLD_KEY,
             WorldKind::Sim.name(),
-            &[WorldKind::Sim.name(), WorldKind::Test.name()],
-            "the world the stages run against: the simulator, or the recorder's test world",
+            &[
+                WorldKind::Sim.name(),
+                WorldKind::Test.name(),
+                WorldKind::Ros2.name(),
+            ],
+            "the world the stages run against: the simulator, the recorder's test world, or a ROS 2 graph",
         )?;
         let kind = if world_name == WorldKind::Test.name() {
             WorldKind::Test
+        } else if world_name == WorldKind::Ros2.name() {
+            WorldKind::Ros2
         } else {
             WorldKind::Sim
         };
@@ -155,6 +178,17 @@ impl Plan {
 
         let not_sim = format!("world = {:?}", kind.name());
         let not_test = not_sim.clone();
+        if kind == WorldKind::Ros2 {
+            r.part("ROS 2 graph");
+        } else {
+            r.inactive_part("ROS 2 graph", &not_sim);
+        }
+        let ros2 = Ros2Config::from_params(&mut r)?;
+        let robot_software = match kind {
+            WorldKind::Sim => true,
+            WorldKind::Test => false,
+            WorldKind::Ros2 => ros2.pipeline == Ros2Pipeline::Full,
+        };
         let sim = {
             if kind == WorldKind::Sim {
                 r.part("simulator");
@@ -163,11 +197,16 @@ impl Plan {
             }
             SimConfig::from_params(&mut r, scenario.seed, scenario.duration.as_secs_f64())?
         };
+        let not_built = if kind == WorldKind::Ros2 {
+            format!("ros2.pipeline = {:?}", ros2.pipeline.name())
+        } else {
+            not_sim.clone()
+        };
         let sim_part = |r: &mut Reader<'_>, name: &str, why_not: Option<String>| {
-            match (kind, why_not) {
-                (WorldKind::Sim, None) => r.part(name),
-                (WorldKind::Sim, Some(why)) => r.inactive_part(name, &why),
-                (_, _) => r.inactive_part(name, &not_sim),
+            match (robot_software, why_not) {
+                (true, None) => r.part(name),
+                (true, Some(why)) => r.inactive_part(name, &why),
+                (false, _) => r.inactive_part(name, &not_built),
             };
         };
         sim_part(&mut r, "calibration stage", None);
@@ -205,24 +244,39 @@ impl Plan {
         test_part(&mut r, "joint_limit_monitor stage");
         let monitor = JointLimitMonitor::from_params(&mut r)?;
 
-        let (problems, tolerated_problems): (Vec<KeyProblem>, Vec<KeyProblem>) = r
-            .problems()
+        // On a ROS 2 graph the simulator, if any, is another process reading the same file.
+        let (remote, problems): (Vec<KeyProblem>, Vec<KeyProblem>) =
+            r.problems().into_iter().partition(|p| {
+                kind == WorldKind::Ros2
+                    && matches!(p, KeyProblem::Inactive { part, .. } if part == "simulator")
+            });
+        let remote: Vec<String> = remote.iter().map(|p| p.key().to_owned()).collect();
+        let (problems, tolerated_problems): (Vec<KeyProblem>, Vec<KeyProblem>) = problems
             .into_iter()
             .partition(|p| !tolerated.contains(p.key()));
         if !problems.is_empty() {
             return Err(ParamError::Unused(problems).into());
         }
         let declarations = r.declarations().to_vec();
+        let software = Stages::Sim {
+            calibration: Box::new(calibration),
+            perceive: perceive_enabled.then(|| Box::new(perceive)),
+            task: task_kind.map(|_| Box::new(task_config)),
+        };
         let (world, stages) = match kind {
-            WorldKind::Sim => (
-                WorldConfig::Sim(Box::new(sim)),
-                Stages::Sim {
-                    calibration: Box::new(calibration),
-                    perceive: perceive_enabled.then(|| Box::new(perceive)),
-                    task: task_kind.map(|_| Box::new(task_config)),
+            WorldKind::Sim => (WorldConfig::Sim(Box::new(sim)), software),
+            WorldKind::Test => (WorldConfig::Test(test), Stages::Test { exerciser, monitor }),
+            WorldKind::Ros2 => (
+                WorldConfig::Ros2 {
+                    config: ros2,
+                    remote_sim: Box::new(sim),
+                },
+                if robot_software {
+                    software
+                } else {
+                    Stages::RobotState
                 },
             ),
-            WorldKind::Test => (WorldConfig::Test(test), Stages::Test { exerciser, monitor }),
         };
         Ok(Self {
             scenario: scenario.clone(),
@@ -232,6 +286,7 @@ impl Plan {
             stages,
             declarations,
             tolerated: tolerated_problems,
+            remote,
         })
     }
 
@@ -247,6 +302,7 @@ impl Plan {
         match self.world {
             WorldConfig::Sim(_) => WorldKind::Sim,
             WorldConfig::Test(_) => WorldKind::Test,
+            WorldConfig::Ros2 { .. } => WorldKind::Ros2,
         }
     }
 
@@ -255,8 +311,35 @@ impl Plan {
     pub fn sim_config(&self) -> Option<&SimConfig> {
         match &self.world {
             WorldConfig::Sim(c) => Some(c),
-            WorldConfig::Test(_) => None,
+            WorldConfig::Test(_) | WorldConfig::Ros2 { .. } => None,
         }
+    }
+
+    /// The simulator configuration of a run on a ROS 2 graph: what `rodlog sim --ros2` with
+    /// the same scenario simulates (the judge rebuilds its truth from it). `None` in the other
+    /// worlds.
+    #[must_use]
+    pub fn remote_sim_config(&self) -> Option<&SimConfig> {
+        match &self.world {
+            WorldConfig::Ros2 { remote_sim, .. } => Some(remote_sim),
+            _ => None,
+        }
+    }
+
+    /// The ROS 2 world's configuration, for a run on a graph.
+    #[must_use]
+    pub fn ros2_config(&self) -> Option<&Ros2Config> {
+        match &self.world {
+            WorldConfig::Ros2 { config, .. } => Some(config),
+            _ => None,
+        }
+    }
+
+    /// Keys the scenario sets that only the simulator reads, on a ROS 2 graph: accepted and not
+    /// used by this process (`rodlog sim --ros2` with the same scenario uses them).
+    #[must_use]
+    pub fn remote_keys(&self) -> &[String] {
+        &self.remote
     }
 
     /// The `task` key's value.
@@ -277,9 +360,10 @@ impl Plan {
         &self.tolerated
     }
 
-    /// The stages, in rank order: the simulator's `robot_state`, `script`, `calibration`,
-    /// then `perceive` and `task` when enabled; the test world's `robot_state`,
-    /// `arm_exerciser`, `joint_limit_monitor`.
+    /// The stages, in rank order: the simulator's (and a full ROS 2 pipeline's)
+    /// `robot_state`, `script`, `calibration`, then `perceive` and `task` when enabled; the
+    /// test world's `robot_state`, `arm_exerciser`, `joint_limit_monitor`; `robot_state`
+    /// alone on a ROS 2 graph with `ros2.pipeline = "robot_state"`.
     ///
     /// # Errors
     /// A stage's own validation (a script command beyond the robot clock, an unreachable
@@ -308,6 +392,7 @@ impl Plan {
                 stages.push(Box::new(exerciser.clone()));
                 stages.push(Box::new(monitor.clone()));
             }
+            Stages::RobotState => {}
         }
         Ok(stages)
     }
@@ -315,11 +400,13 @@ impl Plan {
     /// The world the stages run against.
     ///
     /// # Errors
-    /// The simulator's errors (its scene, a bay that cannot give what the scenario asks).
+    /// The simulator's errors (its scene, a bay that cannot give what the scenario asks); the
+    /// ROS 2 world's remap files.
     pub fn world(&self) -> Result<World, ComposeError> {
         Ok(match &self.world {
             WorldConfig::Sim(c) => World::Sim(Box::new(SimWorld::new(c)?)),
             WorldConfig::Test(c) => World::Test(Box::new(TestWorld::new(c.clone()))),
+            WorldConfig::Ros2 { config, .. } => World::Ros2(Box::new(Ros2World::new(config)?)),
         })
     }
 
@@ -420,6 +507,44 @@ mod tests {
             let plan = plan_of(name, &[])?;
             assert!(plan.pipeline()?.len() >= 3, "{name}");
         }
+        Ok(())
+    }
+
+    #[test]
+    fn on_a_ros2_graph_the_stages_are_the_robots_and_simulator_keys_are_remote()
+    -> Result<(), ComposeError> {
+        let names = |p: &Plan| -> Result<Vec<String>, ComposeError> {
+            Ok(p.pipeline()?.iter().map(|s| s.name().to_owned()).collect())
+        };
+        let plan = plan_of("hang", &["world=\"ros2\""])?;
+        assert_eq!(plan.world_kind(), WorldKind::Ros2);
+        assert_eq!(
+            names(&plan)?,
+            ["robot_state", "script", "calibration", "task"]
+        );
+        assert!(
+            plan.remote_keys().iter().any(|k| k == "hour"),
+            "{:?}",
+            plan.remote_keys()
+        );
+        assert!(plan.remote_sim_config().is_some() && plan.sim_config().is_none());
+        let plan = plan_of("ros2", &[])?;
+        assert_eq!(names(&plan)?, ["robot_state"]);
+        let err = plan_of("ros2", &["task.standoff_m=0.5"])
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(err.contains("ros2.pipeline"), "{err}");
+        let err = plan_of("hang", &["world=\"ros2\"", "hours=3"])
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(err.contains("hours"), "{err}");
+        let err = plan_of("hang", &["ros2.domain_id=3"])
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(err.contains("ROS 2 graph"), "{err}");
         Ok(())
     }
 

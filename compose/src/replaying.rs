@@ -40,6 +40,7 @@ pub fn world_producers(kind: WorldKind) -> &'static [&'static str] {
             recorder::scheduler::SCHEDULER,
             recorder::live::RUNTIME,
         ],
+        WorldKind::Ros2 => &[crate::ros2::record::GRAPH_PRODUCER, recorder::live::RUNTIME],
     }
 }
 

@@ -1,13 +1,16 @@
 //! [`World`]: the worlds a run can be recorded in, behind one [`msgs::drivers::World`].
 //!
-//! The simulator and the recorder's test world today; a ROS 2 graph of real drivers is the
-//! next variant (its drivers deliver on their own clock, so it runs under the live runtime
-//! rather than the lockstep scheduler).
+//! The simulator and the recorder's test world are stepped in lockstep with the stages by the
+//! scheduler; the ROS 2 graph of real drivers (or of `rodlog sim --ros2`) delivers on its own
+//! clock, so it runs under the live runtime ([`crate::ros2::record`]) and its lockstep face
+//! refuses.
 
 use msgs::drivers::{DriverError, DriverOutput};
 use msgs::{Msg, RobotTime};
 use recorder::test_world::TestWorld;
 use sim::SimWorld;
+
+use crate::ros2::Ros2World;
 
 /// A world built by [`crate::Plan::world`].
 #[derive(Debug)]
@@ -16,6 +19,8 @@ pub enum World {
     Sim(Box<SimWorld>),
     /// The recorder's small test world.
     Test(Box<TestWorld>),
+    /// A ROS 2 graph.
+    Ros2(Box<Ros2World>),
 }
 
 impl msgs::drivers::World for World {
@@ -23,6 +28,7 @@ impl msgs::drivers::World for World {
         match self {
             Self::Sim(w) => w.step_until(log_time),
             Self::Test(w) => w.step_until(log_time),
+            Self::Ros2(w) => w.step_until(log_time),
         }
     }
 
@@ -30,6 +36,7 @@ impl msgs::drivers::World for World {
         match self {
             Self::Sim(w) => w.command(log_time, topic, msg),
             Self::Test(w) => w.command(log_time, topic, msg),
+            Self::Ros2(w) => w.command(log_time, topic, msg),
         }
     }
 }

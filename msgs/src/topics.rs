@@ -78,6 +78,21 @@ pub const SIM_ROD_STATE: &str = "/sim/rod_state";
 /// Simulator truth: `map_from_base_link` of the base (odometry drifts; this does not).
 pub const SIM_BASE_POSE: &str = "/sim/base_pose";
 
+/// Topics that command the robot: stage outputs delivered to the world's drivers (the
+/// simulator, or the ROS 2 graph behind `--allow-motion`), DESIGN.md section 3.
+pub const COMMANDS: [&str; 5] = [
+    ARM_JOINT_TRAJECTORY,
+    LIFT_COMMAND,
+    BASE_GOAL,
+    CLAMP_COMMAND,
+    CAMERA_TRIGGER,
+];
+
+/// Whether `topic` commands the robot ([`COMMANDS`]).
+pub fn is_command(topic: &str) -> bool {
+    COMMANDS.contains(&topic)
+}
+
 /// Prefix of simulator ground-truth topics (never an input to calibration, perception or
 /// control).
 pub const SIM_PREFIX: &str = "/sim/";

@@ -21,7 +21,10 @@ pub mod sink;
 pub mod stages;
 pub mod test_world;
 
-pub use live::{LiveDriver, LiveError, LiveOptions, run_hardware, run_lockstep};
+pub use live::{
+    Feed, LiveClock, LiveDriver, LiveEnd, LiveError, LiveOptions, LiveOutput, LiveRun, LiveSource,
+    LiveSummary, Pushed, run_hardware, run_live, run_lockstep,
+};
 pub use mcap_writer::{
     ChunkCompression, McapSink, MetadataRecord, RawRecord, SinkOptions, WriteError, WriteSummary,
     library_string,

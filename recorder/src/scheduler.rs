@@ -41,13 +41,7 @@ pub const MAX_WORLD_STEP: RobotDuration = RobotDuration::from_millis(10);
 /// input is always later than everything already popped).
 pub const REACTION_DELAY: RobotDuration = RobotDuration::from_micros(1);
 /// Topics whose stage outputs are commands delivered to the world (DESIGN.md section 3).
-pub const COMMAND_TOPICS: [&str; 5] = [
-    msgs::topics::ARM_JOINT_TRAJECTORY,
-    msgs::topics::LIFT_COMMAND,
-    msgs::topics::BASE_GOAL,
-    msgs::topics::CLAMP_COMMAND,
-    msgs::topics::CAMERA_TRIGGER,
-];
+pub const COMMAND_TOPICS: [&str; 5] = msgs::topics::COMMANDS;
 
 /// True for command topics.
 pub fn is_command_topic(topic: &str) -> bool {

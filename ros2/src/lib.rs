@@ -9,9 +9,11 @@
 //! | [`node`] | [`Node`], [`NodeOptions`], [`DiscoveryRange`]: one DDS participant per node, `ROS_DOMAIN_ID` |
 //! | [`subscription`] | [`Subscription`] yielding [`Received`] (raw CDR, source stamp, arrival instant); [`TopicCounters`] |
 //! | [`publisher`] | [`Publisher`]: `publish(&[u8])` of CDR with its encapsulation header |
+//! | [`action`] | [`FollowJointTrajectoryClient`]: a raw FollowJointTrajectory action client (joint_trajectory_controller) |
 //! | [`service`] | [`ServiceClient`]: a raw ROS 2 service client, [`ServiceMapping`] Cyclone or Fast DDS |
 //! | [`graph`] | [`Endpoint`]: the writers and readers of a topic, local and discovered |
 //! | [`names`] | ROS 2 names on DDS: `rt/<topic>`, `pkg::msg::dds_::Type_`, `rq/`/`rr/` services |
+//! | [`remap`] | [`Remap`]: vendor topics, frames, joint names, units and encodings to rodlog's (TOML remap files) |
 //! | [`qos`] | [`Qos`] and the presets real drivers use ([`Qos::for_subscription`], [`Qos::for_publisher`]) |
 //! | [`error`] | [`Ros2Error`] |
 //!
@@ -37,6 +39,7 @@
 //! tests and the Cyclone peer wait for the match, then settle, before sending.
 #![warn(missing_docs)]
 
+pub mod action;
 pub mod error;
 pub mod graph;
 pub mod names;
@@ -44,13 +47,16 @@ pub mod node;
 pub mod publisher;
 pub mod qos;
 mod raw;
+pub mod remap;
 pub mod service;
 pub mod subscription;
 
+pub use action::{ActionEvent, FollowJointTrajectoryClient};
 pub use error::Ros2Error;
 pub use graph::{Endpoint, EndpointKind};
 pub use node::{DiscoveryRange, Node, NodeOptions};
 pub use publisher::Publisher;
 pub use qos::{Durability, Qos, Reliability};
+pub use remap::{Remap, RemapError, Route};
 pub use service::{ServiceClient, ServiceMapping};
 pub use subscription::{Received, Subscription, TopicCounters};

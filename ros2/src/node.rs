@@ -168,6 +168,14 @@ impl Node {
         self.domain_id
     }
 
+    /// The GUID prefix of this node's participant (the first 12 bytes of every
+    /// [`Endpoint::guid`] it owns).
+    pub fn guid_prefix(&self) -> [u8; 12] {
+        let mut p = [0_u8; 12];
+        p.copy_from_slice(&self.participant.guid().to_bytes()[..12]);
+        p
+    }
+
     /// The discovery range in force.
     pub fn discovery_range(&self) -> DiscoveryRange {
         self.discovery
@@ -207,6 +215,7 @@ impl Node {
             reader,
             self.local.clone(),
             guid.to_bytes(),
+            self.guid_prefix(),
         )
     }
 
@@ -265,7 +274,8 @@ impl Node {
     }
 
     /// A raw client of `service` (absolute, or relative to the namespace) of type `srv_type`
-    /// (`pkg/srv/Name`), matching replies as the server's middleware does (`mapping`).
+    /// (`pkg/srv/Name`, or an action's `pkg/action/Name_SendGoal`), matching replies as the
+    /// server's middleware does (`mapping`).
     ///
     /// # Errors
     /// [`Ros2Error::InvalidName`], [`Ros2Error::InvalidServiceType`],
@@ -278,8 +288,7 @@ impl Node {
     ) -> Result<ServiceClient, Ros2Error> {
         let ros_service = names::resolve(&self.namespace, service)?;
         let (rq, rr) = names::dds_service_topics(&ros_service)?;
-        let types = srv_type
-            .contains("/srv/")
+        let types = (srv_type.contains("/srv/") || srv_type.contains("/action/"))
             .then(|| {
                 Some((
                     names::dds_type(&format!("{srv_type}_Request")).ok()?,

@@ -16,6 +16,7 @@
 //! Requests and responses are CDR with the encapsulation header, without the mapping's header
 //! (`msgs`-style bytes in and out).
 
+use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 use rustdds::bytes::Bytes;
@@ -56,6 +57,10 @@ pub struct ServiceClient {
     pub(crate) next_sequence: i64,
     pub(crate) local: LocalEndpoints,
     pub(crate) guids: [[u8; 16]; 2],
+    /// Requests sent and not answered yet: sequence -> (Cyclone header, RTPS identity).
+    pub(crate) pending: BTreeMap<i64, ([u8; CYCLONE_HEADER_LEN], SampleIdentity)>,
+    /// Replies taken by [`ServiceClient::call_raw`] that answer other requests.
+    pub(crate) early: Vec<(i64, Vec<u8>)>,
 }
 
 impl std::fmt::Debug for ServiceClient {
@@ -99,6 +104,8 @@ impl ServiceClient {
             next_sequence: 1,
             local,
             guids,
+            pending: BTreeMap::new(),
+            early: Vec::new(),
         })
     }
 
@@ -108,7 +115,8 @@ impl ServiceClient {
     }
 
     /// Sends `request` (CDR with encapsulation header) and waits up to `timeout` for its
-    /// response; `None` when none came in time.
+    /// response; `None` when none came in time. Replies to other pending requests that arrive
+    /// meanwhile stay pending ([`ServiceClient::try_reply`] finds them).
     ///
     /// # Errors
     /// [`Ros2Error::PayloadTooShort`], [`Ros2Error::UnsupportedEncapsulation`],
@@ -119,6 +127,35 @@ impl ServiceClient {
         request: &[u8],
         timeout: Duration,
     ) -> Result<Option<Vec<u8>>, Ros2Error> {
+        let sequence = self.send(request)?;
+        let deadline = Instant::now() + timeout;
+        let mut early: Vec<(i64, Vec<u8>)> = Vec::new();
+        let result = loop {
+            if let Some((seq, response)) = self.try_reply()? {
+                if seq == sequence {
+                    break Some(response);
+                }
+                early.push((seq, response));
+                continue;
+            }
+            let now = Instant::now();
+            if now >= deadline {
+                self.pending.remove(&sequence);
+                break None;
+            }
+            self.wait((deadline - now).min(Duration::from_millis(50)))?;
+        };
+        self.early.extend(early);
+        Ok(result)
+    }
+
+    /// Sends `request` (CDR with encapsulation header) without waiting; returns its sequence
+    /// number, which [`ServiceClient::try_reply`] returns with its response.
+    ///
+    /// # Errors
+    /// [`Ros2Error::PayloadTooShort`], [`Ros2Error::UnsupportedEncapsulation`],
+    /// [`Ros2Error::Write`].
+    pub fn send(&mut self, request: &[u8]) -> Result<i64, Ros2Error> {
         let Some(&[b0, b1, _, _]) = request.get(..msgs::cdr::HEADER_LEN) else {
             return Err(Ros2Error::PayloadTooShort {
                 topic: self.service.clone(),
@@ -152,28 +189,52 @@ impl ServiceClient {
                 topic: self.service.clone(),
                 reason: e.to_string(),
             })?;
-        let deadline = Instant::now() + timeout;
-        loop {
-            while let Some(reply) = self.take_reply()? {
-                if let Some(response) = self.match_reply(&reply.0, reply.1, &header, identity)? {
-                    return Ok(Some(response));
+        self.pending.insert(sequence, (header, identity));
+        Ok(sequence)
+    }
+
+    /// The next response to a pending request of this client, `(sequence, response)`,
+    /// without blocking; `None` when none is waiting. Replies to other clients are skipped.
+    ///
+    /// # Errors
+    /// [`Ros2Error::Read`], [`Ros2Error::ServiceReply`].
+    pub fn try_reply(&mut self) -> Result<Option<(i64, Vec<u8>)>, Ros2Error> {
+        if let Some(r) = self.early.pop() {
+            return Ok(Some(r));
+        }
+        while let Some((payload, related)) = self.take_reply()? {
+            let mut found = None;
+            for (&seq, (header, identity)) in &self.pending {
+                if let Some(response) = self.match_reply(&payload, related, header, *identity)? {
+                    found = Some((seq, response));
+                    break;
                 }
             }
-            let now = Instant::now();
-            if now >= deadline {
-                return Ok(None);
+            if let Some((seq, response)) = found {
+                self.pending.remove(&seq);
+                return Ok(Some((seq, response)));
             }
-            let wait = (deadline - now).min(Duration::from_millis(50));
-            match self.poll.poll(&mut self.events, Some(wait)) {
-                Ok(()) => {}
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-                Err(source) => {
-                    return Err(Ros2Error::Poll {
-                        topic: self.service.clone(),
-                        source,
-                    });
-                }
-            }
+        }
+        Ok(None)
+    }
+
+    /// Requests sent and not answered yet.
+    pub fn pending(&self) -> usize {
+        self.pending.len()
+    }
+
+    /// Waits up to `timeout` for a reply to arrive (no reply is taken).
+    ///
+    /// # Errors
+    /// [`Ros2Error::Poll`].
+    pub fn wait(&mut self, timeout: Duration) -> Result<(), Ros2Error> {
+        match self.poll.poll(&mut self.events, Some(timeout)) {
+            Ok(()) => Ok(()),
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => Ok(()),
+            Err(source) => Err(Ros2Error::Poll {
+                topic: self.service.clone(),
+                source,
+            }),
         }
     }
 

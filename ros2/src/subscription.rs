@@ -76,6 +76,10 @@ pub struct Subscription {
     pub(crate) last_seq: BTreeMap<[u8; 16], i64>,
     pub(crate) local: LocalEndpoints,
     pub(crate) guid: [u8; 16],
+    /// The GUID prefix of this node's participant: samples of its own writers are skipped
+    /// when `ignore_local` is set.
+    pub(crate) participant_prefix: [u8; 12],
+    pub(crate) ignore_local: bool,
 }
 
 impl std::fmt::Debug for Subscription {
@@ -96,6 +100,7 @@ impl Subscription {
         mut reader: DataReader<Vec<u8>, RawCdr>,
         local: LocalEndpoints,
         guid: [u8; 16],
+        participant_prefix: [u8; 12],
     ) -> Result<Subscription, Ros2Error> {
         let poll_err = |source| Ros2Error::Poll {
             topic: topic.to_string(),
@@ -114,7 +119,16 @@ impl Subscription {
             last_seq: BTreeMap::new(),
             local,
             guid,
+            participant_prefix,
+            ignore_local: false,
         })
+    }
+
+    /// Skips samples written by this node's own writers (rclcpp's
+    /// `ignore_local_publications`): a node that subscribes to a topic it also publishes,
+    /// such as `/tf`, then receives only the others' messages. Off by default.
+    pub fn set_ignore_local(&mut self, ignore: bool) {
+        self.ignore_local = ignore;
     }
 
     /// The ROS topic.
@@ -137,19 +151,25 @@ impl Subscription {
     /// # Errors
     /// [`Ros2Error::Read`] when RustDDS fails to take a sample.
     pub fn try_recv(&mut self) -> Result<Option<Received>, Ros2Error> {
-        let sample = self
-            .reader
-            .take_next_sample()
-            .map_err(|e| Ros2Error::Read {
-                topic: self.topic.to_string(),
-                reason: e.to_string(),
-            })?;
-        let Some(sample) = sample else {
-            return Ok(None);
+        let (sample, identity) = loop {
+            let sample = self
+                .reader
+                .take_next_sample()
+                .map_err(|e| Ros2Error::Read {
+                    topic: self.topic.to_string(),
+                    reason: e.to_string(),
+                })?;
+            let Some(sample) = sample else {
+                return Ok(None);
+            };
+            let identity = sample.sample_info().sample_identity();
+            let own = identity.writer_guid.to_bytes()[..12] == self.participant_prefix;
+            if !(self.ignore_local && own) {
+                break (sample, identity);
+            }
         };
         let received_at = Instant::now();
         let info = sample.sample_info();
-        let identity = info.sample_identity();
         let source_timestamp_ns = info.source_timestamp().and_then(ns_from_timestamp);
         self.count_gap(
             identity.writer_guid.to_bytes(),

@@ -18,6 +18,16 @@ Modes (domain from --domain, else ROS_DOMAIN_ID, else 0):
   serve-trigger     a std_srvs/Trigger server on service --topic, as rmw_cyclonedds maps it:
                     rq/<service>Request and rr/<service>Reply, each payload starting with the
                     16-byte header {uint64 client_id, int64 sequence} the reply echoes
+  robot             a robot for `rodlog record --ros2 --allow-motion` to drive: publishes
+                    /joint_states (rodlog's arm joints) at --js-rate Hz, listens on every command
+                    topic (raw CDR kept), optionally serves a FollowJointTrajectory action
+                    (--action), publishes a driver status (--status-topic/-type/-field/-value),
+                    an /estop after N commands (--estop-after), stops its joint states after N
+                    commands (--stop-js-after), and watches the graph for writers on the
+                    command topics (Cyclone's built-in DCPSPublication topic) for --duration s
+  sim-client        a client of `rodlog sim --ros2`: wait for --count JointStates on
+                    /joint_states, publish one std_msgs/Empty on /camera/trigger (reliable),
+                    then wait for the wrist image on /camera/color/image_raw; report both
 
 Publishers wait up to --wait-match s for --readers matched readers, then --settle s (the
 readers must match the writer too), before the first message, and --linger s after the last
@@ -54,10 +64,10 @@ ANY_INTERFACE_URI = "<CycloneDDS><Domain>" + BUFFERS + "</Domain></CycloneDDS>"
 def parse_args():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("mode", choices=["pub-joint-states", "pub-image", "sub", "bench-pub", "bench-sub",
-                                   "serve-trigger"])
+                                   "serve-trigger", "sim-client", "robot"])
     p.add_argument("--domain", type=int, default=None)
     p.add_argument("--topic", default=None, help="ROS topic name, e.g. /joint_states")
-    p.add_argument("--type", default="joint_state", choices=["joint_state", "image", "tf"])
+    p.add_argument("--type", default="joint_state", choices=["joint_state", "image", "tf", "task_event"])
     p.add_argument("--reliability", default=None, choices=["reliable", "best-effort"])
     p.add_argument("--durability", default="volatile", choices=["volatile", "transient-local"])
     p.add_argument("--depth", type=int, default=10, help="keep-last history depth")
@@ -80,6 +90,14 @@ def parse_args():
                    help="sub: record sizes and times only (no decoding); pub-image: serialise "
                    "once and patch only the stamp per message (the pixels repeat)")
     p.add_argument("--any-interface", action="store_true", help="default Cyclone networking")
+    p.add_argument("--action", default=None, help="robot: serve FollowJointTrajectory here")
+    p.add_argument("--status-topic", default=None)
+    p.add_argument("--status-type", default="aubo_dashboard_msgs/msg/SafetyMode")
+    p.add_argument("--status-field", default="uint8", choices=["uint8", "int8", "int32"])
+    p.add_argument("--status-value", type=int, default=1)
+    p.add_argument("--estop-after", type=int, default=0, help="robot: /estop after N commands")
+    p.add_argument("--stop-js-after", type=int, default=0,
+                   help="robot: stop /joint_states after N commands")
     return p.parse_args()
 
 
@@ -89,7 +107,8 @@ os.environ["CYCLONEDDS_URI"] = ANY_INTERFACE_URI if ARGS.any_interface else LOCA
 from cyclonedds.core import Policy, Qos  # noqa: E402 (after CYCLONEDDS_URI is set)
 from cyclonedds.domain import DomainParticipant  # noqa: E402
 from cyclonedds.idl import IdlStruct  # noqa: E402
-from cyclonedds.idl.types import float64, int32, int64, sequence, uint8, uint32, uint64  # noqa: E402
+from cyclonedds.idl.types import array, float64, int8, int32, int64, sequence, uint8, uint16, uint32, uint64  # noqa: E402
+from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication  # noqa: E402
 from cyclonedds.pub import DataWriter  # noqa: E402
 from cyclonedds.sub import DataReader  # noqa: E402
 from cyclonedds.topic import Topic  # noqa: E402
@@ -179,7 +198,193 @@ class TriggerResponse(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Response
     message: str
 
 
-TYPES = {"joint_state": JointState, "image": Image, "tf": TFMessage}
+@dataclass
+class Empty(IdlStruct, typename="std_msgs::msg::dds_::Empty_"):
+    structure_needs_at_least_one_member: uint8
+
+
+@dataclass
+class Duration(IdlStruct, typename="builtin_interfaces::msg::dds_::Duration_"):
+    sec: int32
+    nanosec: uint32
+
+
+@dataclass
+class JointTrajectoryPoint(IdlStruct, typename="trajectory_msgs::msg::dds_::JointTrajectoryPoint_"):
+    positions: sequence[float64]
+    velocities: sequence[float64]
+    accelerations: sequence[float64]
+    effort: sequence[float64]
+    time_from_start: Duration
+
+
+@dataclass
+class JointTrajectory(IdlStruct, typename="trajectory_msgs::msg::dds_::JointTrajectory_"):
+    header: Header
+    joint_names: sequence[str]
+    points: sequence[JointTrajectoryPoint]
+
+
+@dataclass
+class Float64(IdlStruct, typename="std_msgs::msg::dds_::Float64_"):
+    data: float64
+
+
+@dataclass
+class Point(IdlStruct, typename="geometry_msgs::msg::dds_::Point_"):
+    x: float64
+    y: float64
+    z: float64
+
+
+@dataclass
+class Pose(IdlStruct, typename="geometry_msgs::msg::dds_::Pose_"):
+    position: Point
+    orientation: Quaternion
+
+
+@dataclass
+class PoseStamped(IdlStruct, typename="geometry_msgs::msg::dds_::PoseStamped_"):
+    header: Header
+    pose: Pose
+
+
+@dataclass
+class ClampCommand(IdlStruct, typename="rodlog_msgs::msg::dds_::ClampCommand_"):
+    header: Header
+    action: uint8
+    max_torque_nm: float64
+
+
+@dataclass
+class Twist(IdlStruct, typename="geometry_msgs::msg::dds_::Twist_"):
+    linear: Vector3
+    angular: Vector3
+
+
+@dataclass
+class MultiDOFJointTrajectoryPoint(IdlStruct, typename="trajectory_msgs::msg::dds_::MultiDOFJointTrajectoryPoint_"):
+    transforms: sequence[Transform]
+    velocities: sequence[Twist]
+    accelerations: sequence[Twist]
+    time_from_start: Duration
+
+
+@dataclass
+class MultiDOFJointTrajectory(IdlStruct, typename="trajectory_msgs::msg::dds_::MultiDOFJointTrajectory_"):
+    header: Header
+    joint_names: sequence[str]
+    points: sequence[MultiDOFJointTrajectoryPoint]
+
+
+@dataclass
+class JointTolerance(IdlStruct, typename="control_msgs::msg::dds_::JointTolerance_"):
+    name: str
+    position: float64
+    velocity: float64
+    acceleration: float64
+
+
+@dataclass
+class JointComponentTolerance(IdlStruct, typename="control_msgs::msg::dds_::JointComponentTolerance_"):
+    joint_name: str
+    component: uint16
+    position: float64
+    velocity: float64
+    acceleration: float64
+
+
+@dataclass
+class FJTGoal(IdlStruct, typename="control_msgs::action::dds_::FollowJointTrajectory_Goal_"):
+    trajectory: JointTrajectory
+    multi_dof_trajectory: MultiDOFJointTrajectory
+    path_tolerance: sequence[JointTolerance]
+    component_path_tolerance: sequence[JointComponentTolerance]
+    goal_tolerance: sequence[JointTolerance]
+    component_goal_tolerance: sequence[JointComponentTolerance]
+    goal_time_tolerance: Duration
+
+
+@dataclass
+class UUID(IdlStruct, typename="unique_identifier_msgs::msg::dds_::UUID_"):
+    uuid: array[uint8, 16]
+
+
+# The action's services as rmw_cyclonedds puts them on the wire: {client_id, sequence} first.
+@dataclass
+class SendGoalRequest(IdlStruct, typename="control_msgs::action::dds_::FollowJointTrajectory_SendGoal_Request_"):
+    client_id: uint64
+    sequence: int64
+    goal_id: UUID
+    goal: FJTGoal
+
+
+@dataclass
+class SendGoalResponse(IdlStruct, typename="control_msgs::action::dds_::FollowJointTrajectory_SendGoal_Response_"):
+    client_id: uint64
+    sequence: int64
+    accepted: bool
+    stamp: Time
+
+
+@dataclass
+class GetResultRequest(IdlStruct, typename="control_msgs::action::dds_::FollowJointTrajectory_GetResult_Request_"):
+    client_id: uint64
+    sequence: int64
+    goal_id: UUID
+
+
+@dataclass
+class FJTResult(IdlStruct, typename="control_msgs::action::dds_::FollowJointTrajectory_Result_"):
+    error_code: int32
+    error_string: str
+
+
+@dataclass
+class GetResultResponse(IdlStruct, typename="control_msgs::action::dds_::FollowJointTrajectory_GetResult_Response_"):
+    client_id: uint64
+    sequence: int64
+    status: int8
+    result: FJTResult
+
+
+@dataclass
+class GoalInfo(IdlStruct, typename="action_msgs::msg::dds_::GoalInfo_"):
+    goal_id: UUID
+    stamp: Time
+
+
+@dataclass
+class CancelGoalRequest(IdlStruct, typename="action_msgs::srv::dds_::CancelGoal_Request_"):
+    client_id: uint64
+    sequence: int64
+    goal_info: GoalInfo
+
+
+@dataclass
+class CancelGoalResponse(IdlStruct, typename="action_msgs::srv::dds_::CancelGoal_Response_"):
+    client_id: uint64
+    sequence: int64
+    return_code: int8
+    goals_canceling: sequence[GoalInfo]
+
+
+@dataclass
+class TaskEvent(IdlStruct, typename="rodlog_msgs::msg::dds_::TaskEvent_"):
+    header: Header
+    task: str
+    state: str
+    kind: uint8
+    reason_code: str
+    text: str
+
+
+TYPES = {"joint_state": JointState, "image": Image, "tf": TFMessage, "task_event": TaskEvent}
+COMMAND_TOPICS = [("/arm/joint_trajectory", JointTrajectory), ("/lift/command", Float64),
+                  ("/base/goal", PoseStamped), ("/clamp/command", ClampCommand),
+                  ("/camera/trigger", Empty)]
+RODLOG_ARM_JOINTS = ["arm_shoulder_joint", "arm_upperarm_joint", "arm_forearm_joint",
+                     "arm_wrist1_joint", "arm_wrist2_joint", "arm_wrist3_joint"]
 JOINT_NAMES = ["shoulder_joint", "upper_arm_joint", "fore_arm_joint", "wrist1_joint", "wrist2_joint", "wrist3_joint"]
 
 
@@ -313,6 +518,8 @@ def describe(cls, s) -> dict:
         out.update(stamp=[s.header.stamp.sec, s.header.stamp.nanosec], frame_id=s.header.frame_id,
                    height=s.height, width=s.width, encoding=s.encoding, is_bigendian=s.is_bigendian,
                    step=s.step, data_len=len(s.data), data_head=list(bytes(s.data[:16])))
+    elif cls is TaskEvent:
+        out.update(task=s.task, state=s.state, kind=s.kind, reason_code=s.reason_code, text=s.text)
     else:
         out["transforms"] = [
             {"stamp": [t.header.stamp.sec, t.header.stamp.nanosec], "frame_id": t.header.frame_id,
@@ -464,6 +671,153 @@ def run_serve_trigger(dp: DomainParticipant):
     report({"mode": "serve-trigger", "served": served})
 
 
+def run_sim_client(dp: DomainParticipant):
+    """Joint states from the simulator node, then a capture this process asks for."""
+    be = qos("best-effort", "volatile", 10)
+    js_reader = DataReader(dp, Topic(dp, "rt/joint_states", JointState), be)
+    img_reader = DataReader(dp, Topic(dp, "rt/camera/color/image_raw", Image), be)
+    trigger = DataWriter(dp, Topic(dp, "rt/camera/trigger", Empty), qos("reliable", "volatile", 10))
+    end = time.monotonic() + ARGS.timeout
+    joint_states = []
+    while time.monotonic() < end and len(joint_states) < ARGS.count:
+        for s in js_reader.take(N=64):
+            if hasattr(s, "header") and s.sample_info.valid_data:
+                joint_states.append({"stamp": [s.header.stamp.sec, s.header.stamp.nanosec],
+                                     "name": list(s.name), "position": list(s.position)})
+        time.sleep(0.005)
+    matched = wait_for_readers([trigger], 1, max(0.0, end - time.monotonic()))
+    time.sleep(ARGS.settle)
+    triggered_ns = now_ns()
+    trigger.write(Empty(structure_needs_at_least_one_member=0))
+    images = []
+    while time.monotonic() < end and not images:
+        for s in img_reader.take(N=8):
+            if hasattr(s, "header") and s.sample_info.valid_data:
+                images.append(describe(Image, s))
+        time.sleep(0.005)
+    report({"mode": "sim-client", "joint_states": joint_states, "trigger_matched": matched,
+            "triggered_ns": triggered_ns, "images": images})
+
+
+def status_class(typename: str, field: str):
+    kind = {"uint8": uint8, "int8": int8, "int32": int32}[field]
+    pkg, _, name = typename.split("/")
+
+    @dataclass
+    class Status(IdlStruct, typename=f"{pkg}::msg::dds_::{name}_"):
+        mode: kind
+
+    return Status
+
+
+def trajectory_dict(t) -> dict:
+    return {"joint_names": list(t.joint_names), "stamp": [t.header.stamp.sec, t.header.stamp.nanosec],
+            "points": [{"positions": list(p.positions), "velocities": list(p.velocities),
+                        "time_from_start": [p.time_from_start.sec, p.time_from_start.nanosec]}
+                       for p in t.points]}
+
+
+def run_robot(dp: DomainParticipant):
+    """A robot for rodlog's command path to drive (module docs, mode `robot`)."""
+    start = time.monotonic()
+    rel = qos("reliable", "volatile", 10)
+    js_writer = DataWriter(dp, Topic(dp, "rt/joint_states", JointState), rel)
+    readers = {name: DataReader(dp, Topic(dp, dds_topic(name), cls), rel) for name, cls in COMMAND_TOPICS}
+    estop = DataWriter(dp, Topic(dp, "rt/estop", Empty), rel) if ARGS.estop_after else None
+    status = None
+    if ARGS.status_topic:
+        cls = status_class(ARGS.status_type, ARGS.status_field)
+        status = (DataWriter(dp, Topic(dp, dds_topic(ARGS.status_topic), cls), rel), cls)
+    server = None
+    if ARGS.action:
+        a = ARGS.action
+        server = {
+            "goal_rq": DataReader(dp, Topic(dp, "rq" + a + "/_action/send_goalRequest", SendGoalRequest), rel),
+            "goal_rr": DataWriter(dp, Topic(dp, "rr" + a + "/_action/send_goalReply", SendGoalResponse), rel),
+            "result_rq": DataReader(dp, Topic(dp, "rq" + a + "/_action/get_resultRequest", GetResultRequest), rel),
+            "result_rr": DataWriter(dp, Topic(dp, "rr" + a + "/_action/get_resultReply", GetResultResponse), rel),
+            "cancel_rq": DataReader(dp, Topic(dp, "rq" + a + "/_action/cancel_goalRequest", CancelGoalRequest), rel),
+            "cancel_rr": DataWriter(dp, Topic(dp, "rr" + a + "/_action/cancel_goalReply", CancelGoalResponse), rel),
+        }
+    builtin = BuiltinDataReader(dp, BuiltinTopicDcpsPublication)
+    mask = SampleState.Any | ViewState.Any | InstanceState.Any
+    commands, goals, cancels, writer_topics = [], [], 0, set()
+    active = {}   # goal uuid -> end time
+    waiting = []  # (client_id, sequence, uuid) get_result requests
+    results = {}  # uuid -> status once ended
+    js_on, estop_sent = True, False
+    next_js, js_period = start, 1.0 / ARGS.js_rate
+    next_status = start
+    js_sent = 0
+    while time.monotonic() - start < ARGS.duration:
+        now = time.monotonic()
+        if js_on and now >= next_js:
+            js_writer.write(JointState(header=Header(stamp=stamp_of(now_ns()), frame_id=""),
+                                       name=RODLOG_ARM_JOINTS, position=[0.0, 0.3, 1.5, 0.0, -1.2, 0.0],
+                                       velocity=[0.0] * 6, effort=[]))
+            js_sent += 1
+            next_js += js_period
+        if status and now >= next_status:
+            status[0].write(status[1](mode=ARGS.status_value))
+            next_status += 0.05
+        for name, rd in readers.items():
+            ret = ddspy_take(rd._ref, mask, 16)
+            for data, info in [] if isinstance(ret, int) else ret:
+                if info.valid_data:
+                    commands.append({"topic": name, "cdr_hex": bytes(data).hex(),
+                                     "t": now - start})
+        n = len(commands)
+        if ARGS.stop_js_after and n >= ARGS.stop_js_after:
+            js_on = False
+        if estop and not estop_sent and n >= ARGS.estop_after:
+            estop.write(Empty(structure_needs_at_least_one_member=0))
+            estop_sent = True
+        if server:
+            for r in server["goal_rq"].take(N=8):
+                if not hasattr(r, "goal_id"):
+                    continue
+                uuid = bytes(r.goal_id.uuid).hex()
+                t = r.goal.trajectory
+                goals.append({"goal_id": uuid, "trajectory": trajectory_dict(t), "t": now - start})
+                end = max([p.time_from_start.sec + 1e-9 * p.time_from_start.nanosec for p in t.points] + [0.0])
+                active[uuid] = now + min(end, 1.0)
+                server["goal_rr"].write(SendGoalResponse(client_id=r.client_id, sequence=r.sequence,
+                                                         accepted=True, stamp=stamp_of(now_ns())))
+            for r in server["result_rq"].take(N=8):
+                if hasattr(r, "goal_id"):
+                    waiting.append((r.client_id, r.sequence, bytes(r.goal_id.uuid).hex()))
+            for r in server["cancel_rq"].take(N=8):
+                if not hasattr(r, "goal_info"):
+                    continue
+                cancels += 1
+                canceling = []
+                for uuid in list(active):
+                    results[uuid] = 5  # CANCELED
+                    del active[uuid]
+                    canceling.append(GoalInfo(goal_id=UUID(uuid=list(bytes.fromhex(uuid))), stamp=Time(0, 0)))
+                server["cancel_rr"].write(CancelGoalResponse(client_id=r.client_id, sequence=r.sequence,
+                                                             return_code=0, goals_canceling=canceling))
+            for uuid, end in list(active.items()):
+                if now >= end:
+                    results[uuid] = 4  # SUCCEEDED
+                    del active[uuid]
+            for w in list(waiting):
+                if w[2] in results:
+                    server["result_rr"].write(GetResultResponse(
+                        client_id=w[0], sequence=w[1], status=results[w[2]],
+                        result=FJTResult(error_code=0, error_string="")))
+                    waiting.remove(w)
+        for s in builtin.take(N=64):
+            name = getattr(s, "topic_name", None)
+            if name and getattr(s, "participant_key", None) != dp.guid:
+                writer_topics.add(name)
+        time.sleep(0.002)
+    time.sleep(ARGS.linger)
+    report({"mode": "robot", "commands": commands, "goals": goals, "cancels": cancels,
+            "results": {k: v for k, v in results.items()}, "writer_topics": sorted(writer_topics),
+            "joint_states_sent": js_sent, "estop_sent": estop_sent})
+
+
 def main():
     domain = ARGS.domain if ARGS.domain is not None else int(os.environ.get("ROS_DOMAIN_ID", "0"))
     dp = DomainParticipant(domain)
@@ -487,6 +841,10 @@ def main():
         run_bench_pub(dp)
     elif ARGS.mode == "serve-trigger":
         run_serve_trigger(dp)
+    elif ARGS.mode == "sim-client":
+        run_sim_client(dp)
+    elif ARGS.mode == "robot":
+        run_robot(dp)
     else:
         run_bench_sub(dp)
 

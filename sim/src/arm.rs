@@ -268,6 +268,20 @@ impl ArmSim {
 impl ArmDriver for ArmSim {
     fn execute(&mut self, now: RobotTime, trajectory: &JointTrajectory) -> Result<(), DriverError> {
         self.advance(now)?;
+        if trajectory.points.is_empty() {
+            // As ros2_control's joint_trajectory_controller: an empty trajectory stops the arm
+            // where it can (each joint brakes at its acceleration limit) and holds there.
+            self.queue.clear();
+            let lim: [(f64, f64); 6] = std::array::from_fn(|i| {
+                (self.limits[i].velocity_max, self.limits[i].acceleration_max)
+            });
+            let goal: [f64; 6] = std::array::from_fn(|i| {
+                let (v, a) = (self.axes[i].velocity, lim[i].1.max(1e-9));
+                self.axes[i].position + v * v.abs() / (2.0 * a)
+            });
+            plan_synchronised(&mut self.axes, &goal, &lim, 0.0);
+            return Ok(());
+        }
         let points = self.validate(now, trajectory)?;
         self.queue = points.into_iter().map(|(q, tfs)| (q, now + tfs)).collect();
         // Preempt: the current move ends where the arm is; the queue starts from there.

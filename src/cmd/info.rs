@@ -3,6 +3,11 @@
 //! Channel frequency = messages / (end - start) of the whole recording (as `mcap info`
 //! computes it), so a topic published only in part of the run shows its mean rate over the
 //! run. Times are robot-clock nanoseconds (DESIGN.md s2), printed as seconds.
+//!
+//! A live recording (`record --ros2`) also shows its per-topic input counters (the
+//! `live_inputs` metadata record: received, lost on the way, dropped when the runtime fell
+//! behind, late, undecodable) and its command path (the `motion` record: command writers,
+//! commands sent and withheld, the watchdog's worst gap).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -239,6 +244,20 @@ impl InfoReport {
             self.metadata.len(),
             names(self.metadata.iter().map(|m| m.0.as_str()).collect())
         );
+        // A live run's per-topic input counters (received, lost, dropped, late, undecodable),
+        // and its command path (writers, commands sent and withheld, the watchdog).
+        for (record, title) in [
+            (recorder::live::INPUTS_RECORD, "live inputs:"),
+            (compose::ros2::motion::MOTION_RECORD, "motion:"),
+        ] {
+            if let Some((_, entries)) = self.metadata.iter().find(|m| m.0 == record) {
+                let _ = writeln!(s, "{title}");
+                let width = entries.keys().map(String::len).max().unwrap_or(0);
+                for (key, value) in entries {
+                    let _ = writeln!(s, "\t{key:width$} {value}");
+                }
+            }
+        }
         let _ = writeln!(
             s,
             "attachments: {}{}",

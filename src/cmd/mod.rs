@@ -9,8 +9,10 @@ pub mod info;
 pub mod log;
 pub mod params;
 pub mod record;
+pub mod record_ros2;
 pub mod recording_views;
 pub mod replay;
+pub mod sim;
 pub mod view;
 
 /// Prints `text` and a newline on stdout; a closed pipe (`rodlog ... | head`) is not an

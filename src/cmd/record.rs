@@ -1,6 +1,10 @@
 //! `rodlog record --scenario NAME|FILE|REC.mcap [--seed N] [--set k=v]... [--out rec.mcap]
 //! [--realtime] [--threads N] [--viz rec.rrd] [--until-done]`: run a scenario through its
 //! pipeline in its world ([`compose::Plan`]) and record it.
+//!
+//! `rodlog record --ros2 [--scenario S] [--duration S] [--remap FILE]... [--domain N] --out F`:
+//! the same on a ROS 2 graph (`world = "ros2"`, [`compose::ros2::record`]); without
+//! `--scenario` the `ros2` scenario (robot_state only).
 
 use std::path::PathBuf;
 
@@ -11,9 +15,27 @@ use recorder::{ChunkCompression, RecordOptions, SinkOptions};
 #[derive(Debug, clap::Args)]
 pub struct RecordArgs {
     /// Scenario name (recordings/scenarios/NAME.toml), scenario file, or a recording (.mcap):
-    /// its scenario, seed and parameters (closed-loop what-if with --set).
+    /// its scenario, seed and parameters (closed-loop what-if with --set). Required unless
+    /// --ros2 (which defaults to the `ros2` scenario: record, robot_state only).
     #[arg(long)]
-    pub scenario: String,
+    pub scenario: Option<String>,
+    /// Join a ROS 2 graph (world = "ros2"): subscribe to the drivers' topics, stamp them on
+    /// the robot clock, run the scenario's stages live and record inputs and outputs.
+    #[arg(long)]
+    pub ros2: bool,
+    /// With --ros2: a remap file (vendor topics, frames, joints, units to rodlog's), a path or
+    /// a name in config/remap/ (aubo_i10, mecheye_nano); repeatable.
+    #[arg(long, value_name = "FILE")]
+    pub remap: Vec<String>,
+    /// With --ros2: the ROS 2 domain (default: ROS_DOMAIN_ID, else 0).
+    #[arg(long)]
+    pub domain: Option<u16>,
+    /// With --ros2: send the stages' commands to the robot (arm, lift, base, clamp, camera
+    /// trigger). Without it rodlog records and computes, and has no writer on any command
+    /// topic. Software stop on /estop, holds on stale joint states, a stale camera or a driver
+    /// status that does not allow motion (README, "Running on the real robot").
+    #[arg(long)]
+    pub allow_motion: bool,
     /// Override the scenario's seed.
     #[arg(long)]
     pub seed: Option<u64>,
@@ -85,9 +107,39 @@ pub fn plan(
     Ok(compose::Plan::new(&scenario)?)
 }
 
+/// The plan of `rodlog record`'s flags.
+///
+/// # Errors
+/// No scenario without --ros2; ROS 2 flags without --ros2; whatever [`plan`] refuses.
+pub fn record_plan(args: &RecordArgs) -> anyhow::Result<compose::Plan> {
+    let scenario = match (&args.scenario, args.ros2) {
+        (Some(s), _) => s.as_str(),
+        (None, true) => "ros2",
+        (None, false) => bail!("--scenario is required (or --ros2 to record a ROS 2 graph)"),
+    };
+    if !args.ros2 && (!args.remap.is_empty() || args.domain.is_some() || args.allow_motion) {
+        bail!("--remap, --domain and --allow-motion need --ros2");
+    }
+    let mut sets = Vec::new();
+    if args.ros2 {
+        sets.push("world=\"ros2\"".to_owned());
+        if !args.remap.is_empty() {
+            sets.push(format!("ros2.remap={:?}", args.remap.join(",")));
+        }
+        if let Some(d) = args.domain {
+            sets.push(format!("ros2.domain_id={d}"));
+        }
+    }
+    sets.extend(args.set.iter().cloned());
+    plan(scenario, args.seed, args.duration, &sets)
+}
+
 /// Runs `rodlog record`.
 pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
-    let plan = plan(&args.scenario, args.seed, args.duration, &args.set)?;
+    let plan = record_plan(args)?;
+    if plan.world_kind() == compose::WorldKind::Ros2 {
+        return super::record_ros2::run(args, &plan);
+    }
     let out = args
         .out
         .clone()
