@@ -37,7 +37,10 @@ pub enum CalibCommand {
 pub struct SelfArgs {
     /// Recording with wrist images (and depth), camera info and the arm's /tf.
     pub rec: PathBuf,
-    /// Method: ours (the paper's pipeline) or zhi (the SIFT + SfM + SVD baseline, colour only).
+    /// Method: ours (the paper's pipeline with our additions, the default), paper (the
+    /// paper's method as written: Umeyama pair motions, Kronecker/SVD, LM on eq. 15 over the
+    /// tracked features; needs depth), paper+ba (eq. 15 over X and the world points jointly)
+    /// or zhi (the SIFT + SfM + SVD baseline, colour only).
     #[arg(long, default_value = "ours")]
     pub method: String,
     /// Print one JSON object (DESIGN.md section 4, plus per-pair reports) on stdout.
@@ -54,11 +57,36 @@ pub struct SelfArgs {
     /// Ignore recorded depth: the monocular path even when depth is present.
     #[arg(long)]
     pub mono: bool,
+    /// Switch a step of the method on (repeatable): rigid-ransac, depth-weighted-motion,
+    /// image-motion, pose-refinement, pair-rejection, angle-prior, guided-round,
+    /// epipolar-refinement, consistency, eq15 (see `rodlog experiment ablation`).
+    #[arg(long = "with", value_name = "STEP")]
+    pub with_steps: Vec<String>,
+    /// Switch a step of the method off (repeatable; names as for --with).
+    #[arg(long = "without", value_name = "STEP")]
+    pub without_steps: Vec<String>,
+    /// How eq. 15's world points follow X (methods with eq. 15): fixed-from-start
+    /// (triangulated once at the Kronecker X and held; the default), alternated (held during
+    /// each LM, re-triangulated between them, to the fixed point) or retriangulated (at
+    /// every X the LM evaluates).
+    #[arg(long, value_enum, default_value_t = WorldPointsArg::FixedFromStart)]
+    pub eq15_world_points: WorldPointsArg,
     /// ORB keypoint selection (method ours only): quadtree (the paper's) or retain-best (the
     /// strongest corners; far more robust on noisy images, see `rodlog experiment noise
     /// --orb-distribution`).
     #[arg(long, value_enum, default_value_t = Distribution::Quadtree)]
     pub distribution: Distribution,
+}
+
+/// `--eq15-world-points` of `calib self` ([`calib::selfcal::eq15::WorldPoints`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum WorldPointsArg {
+    /// Triangulated and held during each LM, re-triangulated between them.
+    Alternated,
+    /// Re-triangulated at every X the LM evaluates.
+    Retriangulated,
+    /// Triangulated once at the initial X.
+    FixedFromStart,
 }
 
 /// Arguments of `rodlog calib board`.
@@ -176,7 +204,7 @@ fn handeye(args: &HandeyeArgs) -> Result<()> {
         let value = calibration_json(&solution, method.name(), "poses", CAMERA_FRAME);
         super::print_stdout(&serde_json::to_string(&value)?)?;
     } else {
-        super::print_stdout(&human_text(&solution, method))?;
+        super::print_stdout(&human_text(&solution, method.name()))?;
     }
     Ok(())
 }
@@ -219,7 +247,7 @@ fn board(args: &BoardArgs) -> Result<()> {
             board_views.len(),
             views.len()
         ))?;
-        super::print_stdout(&human_text(&solution, method))?;
+        super::print_stdout(&human_text(&solution, method.name()))?;
     }
     Ok(())
 }
@@ -231,17 +259,38 @@ fn self_calibration(args: &SelfArgs) -> Result<()> {
     if args.method == "zhi" {
         return self_calibration_zhi(args);
     }
-    if args.method != "ours" {
-        bail!("calib self --method {}: use ours or zhi", args.method);
-    }
+    let method: calib::selfcal::SelfCalMethod = args.method.parse().map_err(|_| {
+        anyhow::anyhow!(
+            "calib self --method {}: use ours, paper, paper+ba or zhi",
+            args.method
+        )
+    })?;
     let mut messages = super::recording_views::read_calibration_messages(&args.rec)?;
     if args.mono {
         messages.retain(|(topic, _)| topic != msgs::topics::CAMERA_DEPTH_IMAGE);
     }
     let (views, camera) = views_from_messages(&messages)
         .with_context(|| format!("cannot build calibration views from {}", args.rec.display()))?;
-    let mut params = SelfCalParams::for_camera(&camera);
+    let mut params = SelfCalParams::for_method(&camera, method);
     params.orb.distribution = args.distribution.into();
+    params.eq15.world_points = match args.eq15_world_points {
+        WorldPointsArg::Alternated => calib::selfcal::eq15::WorldPoints::Alternated,
+        WorldPointsArg::Retriangulated => calib::selfcal::eq15::WorldPoints::Retriangulated,
+        WorldPointsArg::FixedFromStart => calib::selfcal::eq15::WorldPoints::FixedFromStart,
+    };
+    for (names, on) in [(&args.with_steps, true), (&args.without_steps, false)] {
+        for name in names {
+            params
+                .steps
+                .set(name, on)
+                .map_err(|e| anyhow::anyhow!("calib self --with/--without: {e}"))?;
+        }
+    }
+    if args.out.is_some() && !(args.with_steps.is_empty() && args.without_steps.is_empty()) {
+        bail!(
+            "calib self --out replays the calibration stage, which runs the method's own steps: drop --with/--without"
+        );
+    }
     let result = self_calibrate(&views, &camera, &params).context("self-calibration refused")?;
     let written = match &args.out {
         Some(out) => Some((
@@ -268,7 +317,20 @@ fn self_calibration(args: &SelfArgs) -> Result<()> {
             result.used_pairs(),
             result.pairs.len()
         ))?;
-        super::print_stdout(&human_text(&result.solution, Method::Ours))?;
+        super::print_stdout(&human_text(&result.solution, method.name()))?;
+        if let Some(e) = &result.eq15 {
+            super::print_stdout(&format!(
+                "eq. 15 ({} world points): {} points, {} views, {} observations, {} iterations, cost {:.4e} -> {:.4e} m^2 (RMS {:.3} mm)",
+                e.world_points.name(),
+                e.points,
+                e.views,
+                e.observations,
+                e.iterations,
+                e.initial_cost,
+                e.final_cost,
+                e.rms_m * 1e3
+            ))?;
+        }
         if let Some((out, n)) = written {
             super::print_stdout(&format!(
                 "wrote {n} messages (inputs + calibration stage outputs) to {}",
@@ -303,6 +365,7 @@ fn write_calibrated_recording(
         let config = CalibrationStageConfig {
             captures_to_solve: captures,
             ignore_depth: args.mono,
+            method: args.method.parse().unwrap_or_default(),
             orb_distribution: args.distribution.into(),
             ..CalibrationStageConfig::default()
         };
@@ -390,7 +453,7 @@ fn self_calibration_zhi(args: &SelfArgs) -> Result<()> {
             result.points,
             result.reprojection_rms_px
         ))?;
-        super::print_stdout(&human_text(&result.solution, Method::Kronecker))?;
+        super::print_stdout(&human_text(&result.solution, "zhi (kronecker)"))?;
     }
     Ok(())
 }
@@ -421,7 +484,7 @@ fn match_images(args: &MatchArgs) -> Result<()> {
 }
 
 /// The human-readable result (the JSON's figures, with units and the direction spelled out).
-fn human_text(s: &HandEyeSolution, method: Method) -> String {
+fn human_text(s: &HandEyeSolution, method: &str) -> String {
     use std::fmt::Write as _;
     let mut out = String::new();
     let t = s.tool0_from_camera.translation.vector;
@@ -431,7 +494,7 @@ fn human_text(s: &HandEyeSolution, method: Method) -> String {
         out,
         "tool0_from_camera  (parent tool0, child {CAMERA_FRAME}; maps camera points into tool0)"
     );
-    let _ = writeln!(out, "  method            {}", method.name());
+    let _ = writeln!(out, "  method            {method}");
     let _ = writeln!(
         out,
         "  translation_m     [{:.6}, {:.6}, {:.6}]",

@@ -123,7 +123,8 @@
 use nalgebra::{Isometry3, Matrix3, SymmetricEigen, Translation3, UnitQuaternion, Vector3};
 
 use super::pairs::{PairRejection, RejectionCounts};
-use super::pipeline::{PairMotions, SelfCalParams, pair_motions, relative_motion, scales_from_x};
+use super::pipeline::{PairMotions, SelfCalParams, pair_motions, relative_motion};
+use super::solve::scales_from_x;
 use super::views::CalibView;
 use super::{Mode, SelfCalError};
 use crate::handeye::refine::{apply_x_step, normal_equations_x, pair_residual};
@@ -241,7 +242,7 @@ pub struct PairNoise {
 pub struct DriftParams {
     /// Front end (features, matching, relative pose, smallest pair rotation). Default
     /// [`SelfCalParams::default`] without the mono rotation-angle prior
-    /// ([`SelfCalParams::mono_angle_tolerance_deg`] `None`): the check's mono statistics
+    /// ([`super::Steps::angle_prior`] off): the check's mono statistics
     /// (a-priori noise, the figures above) were validated with the blind essential
     /// estimator; with the prior the mono pairs agree better (lower chi^2, so less
     /// inflation) while the translation along the optical axis stays as poorly determined,
@@ -289,7 +290,10 @@ impl Default for DriftParams {
     fn default() -> Self {
         Self {
             selfcal: SelfCalParams {
-                mono_angle_tolerance_deg: None,
+                steps: super::Steps {
+                    angle_prior: false,
+                    ..super::Steps::ours()
+                },
                 ..SelfCalParams::default()
             },
             noise_rgbd: PairNoise {

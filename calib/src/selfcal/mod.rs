@@ -28,14 +28,22 @@
 //!    noise-weighted refinement; mono: undistorted normalised points, 5-point essential
 //!    LO-RANSAC with cheirality, `|t_A| = 1`, every hypothesis constrained to rotate by the
 //!    hand's angle (screw congruence, [`SelfCalParams::mono_angle_tolerance_deg`]).
-//! 4. Linear initialisation over all pairs (the paper's Kronecker form, [`crate::handeye`]),
-//!    then Levenberg-Marquardt on the pose residuals (`ours`, Huber); pairs whose rotation
-//!    residual exceeds `max_pair_residual_factor` x the median (at least
-//!    `min_pair_residual_limit_deg`) are rejected and the LM is re-run on the others.
-//! 5. RGB-D, on request ([`SelfCalParams::refine_eq15`]): Levenberg-Marquardt on the paper's
-//!    eq. 15 ([`refine`]) over the RANSAC-inlier points, noise-model and Huber weighted, with
-//!    a second pair rejection by eq. 15 RMS. Off by default: with noisy hand poses it is less
-//!    accurate than step 4 (figures in [`refine`]).
+//! 4. Linear initialisation over all pairs (the paper's Kronecker form, eqs. 10-13,
+//!    [`crate::handeye::kronecker`]), then Levenberg-Marquardt on the pose residuals (`ours`,
+//!    Huber); pairs whose rotation residual exceeds `max_pair_residual_factor` x the median
+//!    (at least `min_pair_residual_limit_deg`) are rejected and the LM is re-run on the
+//!    others.
+//! 5. RGB-D, when [`Steps::final_refinement`] asks for it (the paper's method,
+//!    [`SelfCalMethod::Paper`]): Levenberg-Marquardt on the paper's eq. 15 over the features
+//!    tracked across the views ([`tracks`]) with triangulated world points ([`eq15`]), or
+//!    over X and the world points jointly ([`ba`], `paper+ba`). Off in ours: with noisy hand
+//!    poses it is less accurate than step 4.
+//!
+//! # Methods and steps
+//!
+//! [`SelfCalMethod::Paper`] runs the paper's method as written; ours adds the [`Steps`]
+//! (3D-3D RANSAC, the pose LM, pair rejection, the mono angle prior, guided round and
+//! epipolar refinement, the consistency refusal), each switchable ([`method`]).
 //!
 //! # Monocular scale
 //!
@@ -94,19 +102,25 @@
 //! refusals), missing TF or stamps outside its range, depth without a colour image at the
 //! same stamp ([`messages`]). Ground truth (`/sim/...`) is never read.
 
+pub mod ba;
 pub mod drift;
 pub mod epipolar;
+pub mod eq15;
+pub mod image_motion;
 pub mod messages;
+pub mod method;
 pub mod motion;
 pub mod pairs;
 pub mod pipeline;
-pub mod refine;
+mod solve;
 pub mod stage;
+pub mod tracks;
 pub mod views;
 pub mod yaml;
 
 pub use drift::{CHECK_MOTION, CannotTell, DriftParams, DriftReport, DriftVerdict, check_drift};
 pub use messages::views_from_messages;
+pub use method::{FinalRefinement, STEP_NAMES, SelfCalMethod, Steps};
 pub use pipeline::{ConsistencyLimits, SelfCalParams, SelfCalResult, self_calibrate};
 pub use stage::{CalibrationStage, CalibrationStageConfig};
 pub use views::CalibView;
@@ -301,6 +315,15 @@ pub enum SelfCalError {
         /// The X that was refused: for analysing the failure (and for experiments that score
         /// what a refusal prevented), never to be used as a calibration.
         refused_tool0_from_camera: Box<nalgebra::Isometry3<f64>>,
+    },
+    /// The method's final refinement compares depth-measured points (eq. 15): no depth, no
+    /// answer.
+    #[error(
+        "the {refinement} refinement (the paper's eq. 15) needs registered depth in every view; these views have none (use --method ours for the monocular path)"
+    )]
+    MethodNeedsDepth {
+        /// The refinement asked for (`eq15`, `ba`).
+        refinement: &'static str,
     },
     /// The hand-eye solver refused the motions (degenerate motion etc.).
     #[error("hand-eye solve: {0}")]

@@ -5,17 +5,21 @@
 //!   it, [`CalibView::depth_at`]) becomes `p_in_cam_i = backproject(u_i, z_i)`,
 //!   `p_in_cam_j = backproject(u_j, z_j)` through the plumb_bob model (undistorted first);
 //!   [`estimate_rigid_ransac`] (3-point RANSAC, Umeyama/Horn, depth-noise-weighted LM) gives
-//!   `cam_i_from_cam_j` in metres and its inlier point pairs (kept for eq. 15).
+//!   `cam_i_from_cam_j` in metres and its inlier point pairs ([`super::Steps::rigid_ransac`];
+//!   without it, the paper's closed-form Umeyama fit over every match with depth).
 //! - Mono: normalised undistorted points, [`estimate_essential_ransac`] (5-point, Sampson,
 //!   cheirality, LM on `SO(3) x S^2`): `cam_i_from_cam_j` with `|t| = 1`, constrained to
-//!   rotate by the hand's angle ([`SelfCalParams::mono_angle_tolerance_deg`]).
+//!   rotate by the hand's angle ([`SelfCalParams::mono_angle_tolerance_deg`], with
+//!   [`super::Steps::angle_prior`]).
 
 use nalgebra::{Isometry3, Matrix3, Point2, Point3, Vector3};
 
+use super::image_motion::{ImageMatch, refine_image_motion};
 use super::pairs::{PairMatches, PairRejection};
 use super::pipeline::SelfCalParams;
 use super::views::CalibView;
 use crate::relpose::essential::{RotationAnglePrior, refine_essential_guided};
+use crate::relpose::umeyama::rigid_from_correspondences;
 use crate::relpose::{CameraModel, estimate_essential_ransac, estimate_rigid_ransac};
 
 /// Largest relative depth step between a keypoint's pixel and its 4-neighbours (2%).
@@ -64,11 +68,57 @@ pub fn pair_seed(seed: u64, i: usize, j: usize) -> u64 {
     z ^ (z >> 31)
 }
 
-/// RGB-D motion of a pair (module docs).
+/// What the two views measured of one match: undistorted normalised keypoints, registered
+/// depth (metres, `None` where the view has none or a depth step), pyramid levels.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MatchMeasurement {
+    /// Keypoint in view `i`, undistorted normalised.
+    pub x_i: Point2<f64>,
+    /// Keypoint in view `j`, undistorted normalised.
+    pub x_j: Point2<f64>,
+    /// Depth at the keypoint in view `i`.
+    pub z_i: Option<f64>,
+    /// Depth at the keypoint in view `j`.
+    pub z_j: Option<f64>,
+    /// Pyramid levels `[i, j]`.
+    pub levels: [u8; 2],
+}
+
+/// The measurements of a pair's matches (index = [`PairMatches::coords`]'s; `None` where a
+/// keypoint cannot be undistorted).
+pub fn measure_matches(
+    view_i: &CalibView,
+    view_j: &CalibView,
+    camera: &CameraModel,
+    matches: &PairMatches,
+) -> Vec<Option<MatchMeasurement>> {
+    matches
+        .coords
+        .iter()
+        .zip(matches.levels.iter().chain(std::iter::repeat(&[0u8, 0u8])))
+        .map(|(c, l)| {
+            let x_i = camera
+                .undistort_pixel(&Point2::new(f64::from(c[0]), f64::from(c[1])))
+                .ok()?;
+            let x_j = camera
+                .undistort_pixel(&Point2::new(f64::from(c[2]), f64::from(c[3])))
+                .ok()?;
+            Some(MatchMeasurement {
+                x_i,
+                x_j,
+                z_i: view_i.depth_at(c[0], c[1], MAX_DEPTH_STEP),
+                z_j: view_j.depth_at(c[2], c[3], MAX_DEPTH_STEP),
+                levels: *l,
+            })
+        })
+        .collect()
+}
+
+/// RGB-D motion of a pair (module docs): [`measure_matches`], then [`rgbd_motion_from`]
+/// with the camera's mean focal length.
 ///
 /// # Errors
-/// [`PairRejection::TooFewDepthPoints`] when fewer than `min_points` matches have depth in
-/// both views; [`PairRejection::Motion`] when RANSAC refuses.
+/// As [`rgbd_motion_from`].
 pub fn rgbd_motion(
     view_i: &CalibView,
     view_j: &CalibView,
@@ -77,39 +127,53 @@ pub fn rgbd_motion(
     params: &SelfCalParams,
     seed: u64,
 ) -> Result<PairMotion, PairRejection> {
-    let (coords, levels) = (&matches.coords, &matches.levels);
+    let meas = measure_matches(view_i, view_j, camera, matches);
+    rgbd_motion_from(&meas, 0.5 * (camera.fx + camera.fy), params, seed)
+}
+
+/// RGB-D motion of a pair from its match measurements (`f`: focal length, pixels): the 3D
+/// points of the matches with depth in both views, 3D-3D RANSAC and Umeyama on its inliers
+/// ([`super::Steps::rigid_ransac`], else Umeyama over all of them) refined with the depth
+/// noise model ([`super::Steps::depth_weighted_motion`]), then with [`super::Steps::image_motion`] the
+/// refinement in the image ([`super::image_motion`]) over every match with depth in at least
+/// one view, started from the 3D estimate and its inliers (the 3D estimate stands when the
+/// refinement fails).
+///
+/// # Errors
+/// [`PairRejection::TooFewDepthPoints`] when fewer than
+/// [`SelfCalParams::min_depth_points`] matches have depth in both views;
+/// [`PairRejection::Motion`] when RANSAC refuses.
+pub fn rgbd_motion_from(
+    meas: &[Option<MatchMeasurement>],
+    f: f64,
+    params: &SelfCalParams,
+    seed: u64,
+) -> Result<PairMotion, PairRejection> {
     let scale_factor = f64::from(params.orb.scale_factor);
     let min_points = params.min_depth_points;
-    let params = &params.rigid;
-    let noise = params.noise.unwrap_or_default();
-    let f = 0.5 * (camera.fx + camera.fy);
+    let steps = params.steps;
+    let rigid = &params.rigid;
+    let mut noise = rigid.noise.unwrap_or_default();
+    noise.focal_px = f;
+    let sigma_px = |level: u8| noise.sigma_pixel_px * scale_factor.powi(i32::from(level));
     let var = |z: f64, level: u8| {
-        let lateral = z * noise.sigma_pixel_px * scale_factor.powi(i32::from(level)) / f;
+        let lateral = z * sigma_px(level) / f;
         lateral * lateral + noise.sigma_depth_m(z).powi(2)
     };
-    let mut p_i = Vec::with_capacity(coords.len());
-    let mut p_j = Vec::with_capacity(coords.len());
-    let mut sig = Vec::with_capacity(coords.len());
-    let mut used = Vec::with_capacity(coords.len());
-    for (k, (c, l)) in coords
-        .iter()
-        .zip(levels.iter().chain(std::iter::repeat(&[0u8, 0u8])))
-        .enumerate()
-    {
-        let (Some(zi), Some(zj)) = (
-            view_i.depth_at(c[0], c[1], MAX_DEPTH_STEP),
-            view_j.depth_at(c[2], c[3], MAX_DEPTH_STEP),
-        ) else {
+    let point = |x: &Point2<f64>, z: f64| Point3::new(x.x * z, x.y * z, z);
+    let mut p_i = Vec::with_capacity(meas.len());
+    let mut p_j = Vec::with_capacity(meas.len());
+    let mut sig = Vec::with_capacity(meas.len());
+    let mut used = Vec::with_capacity(meas.len());
+    for (k, m) in meas.iter().enumerate() {
+        let Some(m) = m else { continue };
+        let (Some(zi), Some(zj)) = (m.z_i, m.z_j) else {
             continue;
         };
-        let bi = camera.backproject(&Point2::new(f64::from(c[0]), f64::from(c[1])), zi);
-        let bj = camera.backproject(&Point2::new(f64::from(c[2]), f64::from(c[3])), zj);
-        if let (Ok(a), Ok(b)) = (bi, bj) {
-            p_i.push(a);
-            p_j.push(b);
-            sig.push((var(zi, l[0]) + var(zj, l[1])).sqrt());
-            used.push(k);
-        }
+        p_i.push(point(&m.x_i, zi));
+        p_j.push(point(&m.x_j, zj));
+        sig.push((var(zi, m.levels[0]) + var(zj, m.levels[1])).sqrt());
+        used.push(k);
     }
     if p_i.len() < min_points {
         return Err(PairRejection::TooFewDepthPoints {
@@ -117,29 +181,99 @@ pub fn rgbd_motion(
             need: min_points,
         });
     }
-    let mut rp = *params;
-    if let Some(n) = rp.noise.as_mut() {
-        n.focal_px = 0.5 * (camera.fx + camera.fy);
+    let three_d = if steps.rigid_ransac {
+        let mut rp = *rigid;
+        rp.refine = rp.refine && steps.depth_weighted_motion;
+        if let Some(n) = rp.noise.as_mut() {
+            n.focal_px = f;
+        }
+        let est =
+            estimate_rigid_ransac(&p_i, &p_j, &rp, seed).map_err(|e| PairRejection::Motion {
+                reason: e.to_string(),
+            })?;
+        PairMotion {
+            cam_i_from_cam_j: est.a_from_b,
+            inliers: est.inlier_count,
+            rms: est.rms_m,
+            points: Vec::new(),
+            point_sigma_m: Vec::new(),
+            match_inliers: match_flags(meas.len(), &used, &est.inliers),
+        }
+    } else {
+        umeyama_motion(&p_i, &p_j, &used, meas.len())?
+    };
+    let mut motion = three_d;
+    if steps.image_motion {
+        let image: Vec<ImageMatch> = meas
+            .iter()
+            .map(|m| match m {
+                Some(m) => ImageMatch {
+                    x_i: m.x_i,
+                    x_j: m.x_j,
+                    p_i: m.z_i.map(|z| point(&m.x_i, z)),
+                    p_j: m.z_j.map(|z| point(&m.x_j, z)),
+                    sigma_i_px: sigma_px(m.levels[0]),
+                    sigma_j_px: sigma_px(m.levels[1]),
+                },
+                None => ImageMatch {
+                    x_i: Point2::origin(),
+                    x_j: Point2::origin(),
+                    p_i: None,
+                    p_j: None,
+                    sigma_i_px: 1.0,
+                    sigma_j_px: 1.0,
+                },
+            })
+            .collect();
+        let need = rigid.min_inliers.max(3);
+        if let Some(r) = refine_image_motion(
+            &image,
+            &motion.match_inliers,
+            &motion.cam_i_from_cam_j,
+            f,
+            &noise,
+            need,
+        ) {
+            motion.cam_i_from_cam_j = r.cam_i_from_cam_j;
+            motion.inliers = r.inlier_count;
+            motion.match_inliers = r.inliers;
+        }
     }
-    let est = estimate_rigid_ransac(&p_i, &p_j, &rp, seed).map_err(|e| PairRejection::Motion {
-        reason: e.to_string(),
-    })?;
-    let match_inliers = match_flags(coords.len(), &used, &est.inliers);
-    let (points, point_sigma_m) = p_i
-        .into_iter()
-        .zip(p_j)
-        .zip(sig)
-        .zip(&est.inliers)
-        .filter(|(_, k)| **k)
-        .map(|(p, _)| p)
-        .unzip();
+    // The inlier point pairs with depth in both views at the final motion (eq. 15 figures,
+    // the eye lever arm).
+    let a = motion.cam_i_from_cam_j;
+    let (mut sum, mut n) = (0.0, 0usize);
+    for ((pi, pj), (s, &k)) in p_i.iter().zip(&p_j).zip(sig.iter().zip(&used)) {
+        if motion.match_inliers.get(k).copied().unwrap_or(false) {
+            sum += (pi - a * pj).norm_squared();
+            n += 1;
+            motion.points.push((*pi, *pj));
+            motion.point_sigma_m.push(*s);
+        }
+    }
+    motion.rms = (sum / n.max(1) as f64).sqrt();
+    Ok(motion)
+}
+
+/// The paper's RGB-D motion (without [`super::Steps::rigid_ransac`]): the closed-form rigid fit
+/// (Umeyama) over every match with depth in both views; all of them count as inliers.
+fn umeyama_motion(
+    p_i: &[Point3<f64>],
+    p_j: &[Point3<f64>],
+    used: &[usize],
+    n_matches: usize,
+) -> Result<PairMotion, PairRejection> {
+    let a_from_b =
+        rigid_from_correspondences(p_i, p_j, None).map_err(|e| PairRejection::Motion {
+            reason: e.to_string(),
+        })?;
     Ok(PairMotion {
-        cam_i_from_cam_j: est.a_from_b,
-        inliers: est.inlier_count,
-        rms: est.rms_m,
-        points,
-        point_sigma_m,
-        match_inliers,
+        cam_i_from_cam_j: a_from_b,
+        inliers: p_i.len(),
+        rms: f64::NAN,
+        points: Vec::new(),
+        point_sigma_m: Vec::new(),
+        match_inliers: match_flags(n_matches, used, &vec![true; p_i.len()]),
     })
 }
 
@@ -162,12 +296,10 @@ pub fn mono_motion(
 ) -> Result<PairMotion, PairRejection> {
     let coords = &matches.coords;
     let threshold_px = params.essential_threshold_px;
-    let prior = params
-        .mono_angle_tolerance_deg
-        .map(|tol| RotationAnglePrior {
-            angle_rad: matches.hand_rotation_deg.to_radians(),
-            tolerance_rad: tol.to_radians(),
-        });
+    let prior = params.steps.angle_prior.then(|| RotationAnglePrior {
+        angle_rad: matches.hand_rotation_deg.to_radians(),
+        tolerance_rad: params.mono_angle_tolerance_deg.to_radians(),
+    });
     let planar = params.mono_planar_support_ratio;
     let params = &params.essential;
     let mut x_i = Vec::with_capacity(coords.len());

@@ -125,6 +125,9 @@ pub struct PairMatches {
     pub raw_matches: usize,
     /// GMS inliers `[x_i, y_i, x_j, y_j]`.
     pub coords: Vec<[f32; 4]>,
+    /// Keypoint indices `[index in view i, index in view j]` of each GMS inlier (the feature
+    /// tracks of eq. 15 chain them, [`super::tracks`]).
+    pub keypoints: Vec<[u32; 2]>,
     /// Pyramid levels `[level_i, level_j]` of the two keypoints of each inlier (their
     /// localisation error grows with `scale_factor^level`).
     pub levels: Vec<[u8; 2]>,
@@ -238,6 +241,7 @@ pub fn match_pair(
             hand_rotation_deg,
             raw_matches: 0,
             coords: Vec::new(),
+            keypoints: Vec::new(),
             levels: Vec::new(),
             motion_inliers: Vec::new(),
         };
@@ -254,18 +258,22 @@ pub fn match_pair(
         &matches,
         &params.gms,
     );
-    let (coords, levels): (Vec<[f32; 4]>, Vec<[u8; 2]>) = matches
-        .iter()
-        .zip(&mask)
-        .filter(|(_, k)| **k)
-        .filter_map(|(m, _)| {
-            let a = fa.keypoints.get(m.query as usize)?;
-            let b = fb.keypoints.get(m.train as usize)?;
-            let (ax, ay) = full_res_position(a, scale_factor);
-            let (bx, by) = full_res_position(b, scale_factor);
-            Some(([ax, ay, bx, by], [a.level, b.level]))
-        })
-        .unzip();
+    let mut coords = Vec::new();
+    let mut levels = Vec::new();
+    let mut keypoints = Vec::new();
+    for (m, _) in matches.iter().zip(&mask).filter(|(_, k)| **k) {
+        let (Some(a), Some(b)) = (
+            fa.keypoints.get(m.query as usize),
+            fb.keypoints.get(m.train as usize),
+        ) else {
+            continue;
+        };
+        let (ax, ay) = full_res_position(a, scale_factor);
+        let (bx, by) = full_res_position(b, scale_factor);
+        coords.push([ax, ay, bx, by]);
+        levels.push([a.level, b.level]);
+        keypoints.push([m.query, m.train]);
+    }
     let motion_inliers = vec![false; coords.len()];
     PairMatches {
         i,
@@ -273,6 +281,7 @@ pub fn match_pair(
         hand_rotation_deg,
         raw_matches: matches.len(),
         coords,
+        keypoints,
         levels,
         motion_inliers,
     }

@@ -5,24 +5,24 @@
 //! collection, each pair's RANSAC has its own seed ([`pair_seed`]), all reductions are
 //! sequential: the result does not depend on the thread count.
 
-use nalgebra::{Isometry3, Point2, Point3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Point2, Point3, Translation3, Vector3};
 use rayon::prelude::*;
 
 use super::epipolar::{EpipolarPair, EpipolarParams, refine_epipolar};
-use super::motion::{PairMotion, mono_motion, mono_translation, pair_seed, rgbd_motion};
+use super::eq15::{Eq15Params, Eq15Report};
+use super::method::{FinalRefinement, SelfCalMethod, Steps};
+use super::motion::{PairMotion, mono_motion, pair_seed, rgbd_motion};
 use super::pairs::{
-    PairMatches, PairRejection, Refused, RejectionCounts, candidate_pairs, extract_features,
-    hand_motion, match_pair,
+    PairMatches, PairRejection, Refused, candidate_pairs, extract_features, hand_motion, match_pair,
 };
-use super::refine::{Eq15Pair, Eq15Params, Eq15Report, refine_eq15};
+use super::solve::{
+    TrackInputs, median, scales_from_x, solve_mono, solve_rgbd, too_few_pairs, used_indices,
+};
 use super::views::{CalibView, validate_views};
-use super::{ConsistencyRule, MIN_PAIRS, MONO_SCALE_ALTERNATIONS, Mode, SelfCalError};
+use super::{ConsistencyRule, MIN_PAIRS, Mode, SelfCalError};
 use crate::features::{GmsParams, MatchParams, OrbParams};
 use crate::handeye::refine::pair_residual;
-use crate::handeye::{
-    HandEyeError, HandEyeOptions, HandEyeSolution, RelativeMotion, degeneracy, kronecker,
-    solve_motions, uncertainty,
-};
+use crate::handeye::{HandEyeOptions, HandEyeSolution, Method, RelativeMotion, uncertainty};
 use crate::relpose::{CameraModel, EssentialParams, RigidRansacParams};
 
 /// Parameters of [`self_calibrate`]; every default is documented on its field.
@@ -50,11 +50,14 @@ pub struct SelfCalParams {
     pub essential: EssentialParams,
     /// Sampson inlier threshold, pixels (default 1.0).
     pub essential_threshold_px: f64,
-    /// Mono: the camera motion of a pair must rotate by the hand's angle within this many
-    /// degrees, as a rigid mount makes it ([`crate::relpose::essential::RotationAnglePrior`]);
-    /// `None` estimates `E` without the prior. Default 3 (the hand-eye solvers' own
-    /// consistency limit).
-    pub mono_angle_tolerance_deg: Option<f64>,
+    /// Which steps run ([`Steps`]; default [`Steps::ours`]; the paper's method is
+    /// [`Steps::paper`], see [`SelfCalParams::for_method`]).
+    pub steps: Steps,
+    /// Mono, with [`Steps::angle_prior`]: the camera motion of a pair must rotate by the
+    /// hand's angle within this many degrees, as a rigid mount makes it
+    /// ([`crate::relpose::essential::RotationAnglePrior`]). Default 3 (the hand-eye solvers'
+    /// own consistency limit).
+    pub mono_angle_tolerance_deg: f64,
     /// Mono: take a pair's motion from its homography when one explains at least this
     /// fraction of the essential matrix's inliers
     /// ([`crate::relpose::EssentialParams::planar_support_ratio`]); default `None`: on the
@@ -62,23 +65,16 @@ pub struct SelfCalParams {
     /// pairs but with larger residuals (X rotation error 0.29-0.76 deg with it at 0.8,
     /// 0.26-0.60 deg without, three trials), so only a truly planar scene should turn it on.
     pub mono_planar_support_ratio: Option<f64>,
-    /// Mono: refine X on all used pairs' epipolar constraints with the metric hand
-    /// translations ([`super::epipolar`]); default true.
-    pub mono_epipolar_refinement: bool,
-    /// Hand-eye solver options (default `ours`, Huber; `scale_free` is set by the mode).
+    /// Hand-eye solver options (default `ours`, Huber; `scale_free` is set by the mode; the
+    /// method becomes `kronecker` without [`Steps::pose_refinement`], and the angle-mismatch
+    /// rejection is off without [`Steps::pair_rejection`]).
     pub handeye: HandEyeOptions,
-    /// RGB-D: finish with the eq. 15 point refinement ([`super::refine`]; default false: with
-    /// noisy hand poses it is less accurate than the pose LM, see the module docs of
-    /// [`super::refine`]).
-    pub refine_eq15: bool,
-    /// Stopping rules of the eq. 15 refinement.
+    /// Stopping rules and world points of the eq. 15 refinement ([`Steps::final_refinement`]).
     pub eq15: Eq15Params,
     /// A pair is rejected when its residual exceeds this many times the median pair
     /// residual (default 3).
     pub max_pair_residual_factor: f64,
-    /// ... but never below this eq. 15 RMS, metres (default 1e-3).
-    pub min_pair_residual_limit_m: f64,
-    /// ... nor below this rotation residual (mono), degrees (default 1.0).
+    /// ... but never below this rotation residual, degrees (default 1.0).
     pub min_pair_residual_limit_deg: f64,
     /// Seed of the per-pair RANSAC streams (default 0).
     pub seed: u64,
@@ -162,14 +158,12 @@ impl Default for SelfCalParams {
             min_depth_points: 12,
             essential: EssentialParams::default(),
             essential_threshold_px: 1.0,
-            mono_angle_tolerance_deg: Some(3.0),
+            steps: Steps::ours(),
+            mono_angle_tolerance_deg: 3.0,
             mono_planar_support_ratio: None,
-            mono_epipolar_refinement: true,
             handeye: HandEyeOptions::default(),
-            refine_eq15: false,
             eq15: Eq15Params::default(),
             max_pair_residual_factor: 3.0,
-            min_pair_residual_limit_m: 1e-3,
             min_pair_residual_limit_deg: 1.0,
             seed: 0,
             consistency: ConsistencyLimits::default(),
@@ -194,6 +188,11 @@ impl SelfCalParams {
     /// 3264x1836 -> 8000 features; the median rotation residual there drops from 1.2 deg with
     /// 2000 features to 0.54 deg). Images up to 1280x1024 get [`SelfCalParams::default`].
     pub fn for_camera(camera: &CameraModel) -> Self {
+        Self::for_method(camera, SelfCalMethod::Ours)
+    }
+
+    /// [`SelfCalParams::for_camera`] with the steps of `method`.
+    pub fn for_method(camera: &CameraModel, method: SelfCalMethod) -> Self {
         let mut p = Self::default();
         let area = f64::from(camera.width) * f64::from(camera.height);
         let scaled = (p.orb.n_features as f64 * area / REFERENCE_AREA_PX).round() as usize;
@@ -202,6 +201,7 @@ impl SelfCalParams {
             p.gms.with_rotation = true;
             p.gms.with_scale = true;
         }
+        p.steps = method.steps();
         p
     }
 }
@@ -251,7 +251,9 @@ pub struct SelfCalResult {
     pub matches: Vec<PairMatches>,
     /// X of the linear (Kronecker) initialisation.
     pub linear_tool0_from_camera: Isometry3<f64>,
-    /// RGB-D: the final eq. 15 refinement.
+    /// The steps that ran.
+    pub steps: Steps,
+    /// RGB-D: the final eq. 15 refinement or bundle adjustment ([`Steps::final_refinement`]).
     pub eq15: Option<Eq15Report>,
 }
 
@@ -262,63 +264,9 @@ impl SelfCalResult {
     }
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.retain(|x| x.is_finite());
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 fn centroid(points: &[(Point3<f64>, Point3<f64>)]) -> Vector3<f64> {
     let n = points.len().max(1) as f64;
     points.iter().map(|(p, _)| p.coords).sum::<Vector3<f64>>() / n
-}
-
-/// Runs the solve on the pairs `used` (indices into `reports`) and marks the pairs the
-/// hand-eye solver rejects.
-fn solve_used(
-    reports: &mut [PairReport],
-    used: &[usize],
-    motions: &[RelativeMotion],
-    opts: &HandEyeOptions,
-) -> Result<HandEyeSolution, SelfCalError> {
-    let sel: Vec<RelativeMotion> = used
-        .iter()
-        .filter_map(|&k| motions.get(k).copied())
-        .collect();
-    let sol = solve_motions(&sel, opts)?;
-    for &r in &sol.rejected_pairs {
-        if let Some(rep) = used.get(r).and_then(|&k| reports.get_mut(k)) {
-            rep.rejected = Some(PairRejection::AngleMismatch);
-        }
-    }
-    Ok(sol)
-}
-
-fn too_few_pairs(reports: &[PairReport]) -> SelfCalError {
-    let c = RejectionCounts::of(reports.iter().map(|r| r.rejected.as_ref()));
-    SelfCalError::TooFewPairs {
-        usable: c.usable,
-        candidates: reports.len(),
-        need: MIN_PAIRS,
-        too_little_rotation: c.small_rotation,
-        too_few_matches: c.too_few_matches,
-        motion_failed: c.motion_failed,
-        rejected_later: c.rejected_later,
-    }
-}
-
-fn used_indices(reports: &[PairReport]) -> Vec<usize> {
-    (0..reports.len())
-        .filter(|&k| reports.get(k).is_some_and(|r| r.rejected.is_none()))
-        .collect()
 }
 
 /// Steps 1-3 of the pipeline (module docs of [`super`]) on `views`: their mode, features,
@@ -422,16 +370,30 @@ pub fn self_calibrate(
     camera: &CameraModel,
     params: &SelfCalParams,
 ) -> Result<SelfCalResult, SelfCalError> {
+    let mode = validate_views(views, camera)?;
+    if mode == Mode::Mono && params.steps.final_refinement != FinalRefinement::None {
+        return Err(SelfCalError::MethodNeedsDepth {
+            refinement: params.steps.final_refinement.name(),
+        });
+    }
+    let check = if params.steps.consistency {
+        Check::Consistency
+    } else {
+        Check::None
+    };
     let motions = pair_motions(views, camera, params)?;
     match motions.mode {
-        Mode::Rgbd => solve_pair_motions(views, camera, params, motions, Check::Consistency),
+        Mode::Rgbd => solve_pair_motions(views, camera, params, motions, check),
+        Mode::Mono if !params.steps.guided_round => {
+            solve_pair_motions(views, camera, params, motions, check)
+        }
         Mode::Mono => {
             // Round 1 (blind essential matrices) gives X_1; round 2 re-estimates every pair
             // from the motion X_1^-1 B X_1 predicts (module docs of [`super`]) and is the one
             // that must pass the consistency refusal.
             let first = solve_pair_motions(views, camera, params, motions.clone(), Check::None)?;
             let guided = guided_mono_motions(views, camera, params, motions, &first.solution);
-            solve_pair_motions(views, camera, params, guided, Check::Consistency)
+            solve_pair_motions(views, camera, params, guided, check)
         }
     }
 }
@@ -573,17 +535,15 @@ fn solve_pair_motions(
     let mut reports: Vec<PairReport> = Vec::with_capacity(matches.len() + small.len());
     let mut motions: Vec<RelativeMotion> = Vec::with_capacity(matches.len());
     let mut points: Vec<Vec<(Point3<f64>, Point3<f64>)>> = Vec::with_capacity(matches.len());
-    let mut sigmas: Vec<Vec<f64>> = Vec::with_capacity(matches.len());
     for (m, est) in matches.iter().zip(&estimates) {
-        let (a, inliers, pts, sig, rejected) = match est {
+        let (a, inliers, pts, rejected) = match est {
             Ok(pm) => (
                 Some(pm.cam_i_from_cam_j),
                 pm.inliers,
                 pm.points.clone(),
-                pm.point_sigma_m.clone(),
                 None,
             ),
-            Err(e) => (None, 0, Vec::new(), Vec::new(), Some(e.clone())),
+            Err(e) => (None, 0, Vec::new(), Some(e.clone())),
         };
         // A pair without a camera motion keeps a placeholder (never used: it is rejected).
         let rm = est
@@ -596,7 +556,6 @@ fn solve_pair_motions(
             });
         motions.push(rm);
         points.push(pts);
-        sigmas.push(sig);
         reports.push(PairReport {
             i: m.i,
             j: m.j,
@@ -639,14 +598,21 @@ fn solve_pair_motions(
         return Err(too_few_pairs(&reports));
     }
 
-    let mut opts = params.handeye.clone();
-    opts.scale_free = false; // mono: metric per-pair scales (module docs)
+    let opts = handeye_options(params);
     let mut epipolar = false;
     let (mut solution, linear, eq15) = match mode {
-        Mode::Rgbd => solve_rgbd(&mut reports, &motions, &points, &sigmas, &opts, params)?,
+        Mode::Rgbd => {
+            let inputs = TrackInputs {
+                views,
+                camera,
+                matches: &matches,
+                keypoints_per_view: &features_per_view,
+            };
+            solve_rgbd(&mut reports, &motions, &inputs, &opts, params)?
+        }
         Mode::Mono => {
             let (mut sol, linear, eq15) = solve_mono(&mut reports, &mut motions, &opts, params)?;
-            epipolar = params.mono_epipolar_refinement
+            epipolar = params.steps.epipolar_refinement
                 && refine_mono_epipolar(camera, params, &matches, &reports, &mut motions, &mut sol);
             (sol, linear, eq15)
         }
@@ -693,8 +659,24 @@ fn solve_pair_motions(
         pairs: reports,
         matches,
         linear_tool0_from_camera: linear,
+        steps: params.steps,
         eq15,
     })
+}
+
+/// The hand-eye options of `params` under its steps: `scale_free` off (mono motions carry
+/// metric per-pair scales, module docs of [`super`]), the Kronecker/SVD solve without
+/// [`Steps::pose_refinement`], no angle-mismatch rejection without [`Steps::pair_rejection`].
+fn handeye_options(params: &SelfCalParams) -> HandEyeOptions {
+    let mut opts = params.handeye.clone();
+    opts.scale_free = false;
+    if !params.steps.pose_refinement {
+        opts.method = Method::Kronecker;
+    }
+    if !params.steps.pair_rejection {
+        opts.max_angle_mismatch_deg = f64::INFINITY;
+    }
+    opts
 }
 
 /// Views that appear in the used pairs, minus one: the number of independent motions the
@@ -793,236 +775,4 @@ fn check_consistency(
             refused_tool0_from_camera: Box::new(s.tool0_from_camera),
         }),
     }
-}
-
-type Solved = (HandEyeSolution, Isometry3<f64>, Option<Eq15Report>);
-
-fn solve_rgbd(
-    reports: &mut [PairReport],
-    motions: &[RelativeMotion],
-    points: &[Vec<(Point3<f64>, Point3<f64>)>],
-    sigmas: &[Vec<f64>],
-    opts: &HandEyeOptions,
-    params: &SelfCalParams,
-) -> Result<Solved, SelfCalError> {
-    let used = used_indices(reports);
-    let sel: Vec<RelativeMotion> = used
-        .iter()
-        .filter_map(|&k| motions.get(k).copied())
-        .collect();
-    let (linear, _) = kronecker::solve(&degeneracy_kept(&sel, opts)?, false)?;
-    let mut sol = solve_used(reports, &used, motions, opts)?;
-    // Pair rejection by pose residual, then the final pose LM on the kept pairs.
-    if reject_by_pose_residual(reports, motions, &sol.tool0_from_camera, params) > 0 {
-        if used_indices(reports).len() < MIN_PAIRS {
-            return Err(too_few_pairs(reports));
-        }
-        sol = solve_used(reports, &used_indices(reports), motions, opts)?;
-    }
-    if !params.refine_eq15 {
-        return Ok((sol, linear, None));
-    }
-    let mut report = None;
-    for round in 0..2 {
-        let used = used_indices(reports);
-        let pairs: Vec<Eq15Pair> = used
-            .iter()
-            .filter_map(|&k| {
-                Some(Eq15Pair {
-                    tool_i_from_tool_j: motions.get(k)?.b,
-                    points: points.get(k)?.clone(),
-                    sigma_m: sigmas.get(k)?.clone(),
-                })
-            })
-            .collect();
-        let rep = refine_eq15(&pairs, &sol.tool0_from_camera, &params.eq15);
-        let limit = (params.max_pair_residual_factor * median(rep.pair_rms_m.clone()))
-            .max(params.min_pair_residual_limit_m);
-        let mut rejected_any = false;
-        if round == 0 {
-            for (&k, &rms) in used.iter().zip(&rep.pair_rms_m) {
-                if rms > limit
-                    && let Some(r) = reports.get_mut(k)
-                {
-                    r.rejected = Some(PairRejection::Residual {
-                        residual: rms * 1e3,
-                        limit: limit * 1e3,
-                        unit: "mm, eq. 15 RMS",
-                    });
-                    rejected_any = true;
-                }
-            }
-        }
-        if rejected_any {
-            if used_indices(reports).len() < MIN_PAIRS {
-                return Err(too_few_pairs(reports));
-            }
-            sol = solve_used(reports, &used_indices(reports), motions, opts)?;
-            continue;
-        }
-        report = Some(rep);
-        break;
-    }
-    let Some(rep) = report else {
-        return Ok((sol, linear, None));
-    };
-    // Final figures at the eq. 15 optimum over the pairs still used.
-    let used = used_indices(reports);
-    let sel: Vec<RelativeMotion> = used
-        .iter()
-        .filter_map(|&k| motions.get(k).copied())
-        .collect();
-    let x = rep.tool0_from_camera;
-    let stats = uncertainty::evaluate(&sel, &x, 1.0, opts, sel.len());
-    sol.tool0_from_camera = x;
-    sol.pairs = sel.len();
-    sol.residual_rot_deg = stats.residual_rot_deg;
-    sol.residual_trans_mm = stats.residual_trans_mm;
-    sol.sigma_rot_deg = stats.sigma_rot_deg;
-    sol.sigma_trans_mm = stats.sigma_trans_mm;
-    sol.iterations += rep.iterations;
-    Ok((sol, linear, Some(rep)))
-}
-
-/// Rejects the used pairs whose rotation residual of `B X = X A` exceeds
-/// `max(max_pair_residual_factor * median, min_pair_residual_limit_deg)` (eye translations
-/// taken as they are, i.e. metric). Returns how many were rejected.
-fn reject_by_pose_residual(
-    reports: &mut [PairReport],
-    motions: &[RelativeMotion],
-    x: &Isometry3<f64>,
-    params: &SelfCalParams,
-) -> usize {
-    let used = used_indices(reports);
-    let res: Vec<f64> = used
-        .iter()
-        .filter_map(|&k| motions.get(k))
-        .map(|m| pair_residual(m, x, 1.0).0.norm().to_degrees())
-        .collect();
-    let limit = (params.max_pair_residual_factor * median(res.clone()))
-        .max(params.min_pair_residual_limit_deg);
-    let mut n = 0;
-    for (&k, &r) in used.iter().zip(&res) {
-        if r > limit
-            && let Some(rep) = reports.get_mut(k)
-        {
-            rep.rejected = Some(PairRejection::Residual {
-                residual: r,
-                limit,
-                unit: "deg, AX=XB rotation",
-            });
-            n += 1;
-        }
-    }
-    n
-}
-
-fn degeneracy_kept(
-    motions: &[RelativeMotion],
-    opts: &HandEyeOptions,
-) -> Result<Vec<RelativeMotion>, SelfCalError> {
-    let report = degeneracy::analyse(motions, opts)?;
-    Ok(report
-        .kept
-        .iter()
-        .filter_map(|&k| motions.get(k).copied())
-        .collect())
-}
-
-/// Per-pair scales from X: `s = u^T((R_B - I) t_X + t_B) / |t_A|`, `u = R_X t_A / |t_A|`.
-pub(crate) fn scales_from_x(
-    motions: &[(Isometry3<f64>, Isometry3<f64>, f64)],
-    x: &Isometry3<f64>,
-) -> Vec<f64> {
-    let r_x = x.rotation.to_rotation_matrix().into_inner();
-    motions
-        .iter()
-        .map(|(a, b, _)| {
-            let ta = a.translation.vector;
-            let na = ta.norm();
-            if na <= 0.0 {
-                return 0.0;
-            }
-            let u = r_x * ta / na;
-            let rb = b.rotation.to_rotation_matrix().into_inner();
-            u.dot(
-                &((rb - nalgebra::Matrix3::identity()) * x.translation.vector
-                    + b.translation.vector),
-            ) / na
-        })
-        .collect()
-}
-
-fn solve_mono(
-    reports: &mut [PairReport],
-    motions: &mut [RelativeMotion],
-    opts: &HandEyeOptions,
-    params: &SelfCalParams,
-) -> Result<Solved, SelfCalError> {
-    // Unit-translation motions as estimated (`|t_A| = 1`).
-    let unit: Vec<(Isometry3<f64>, Isometry3<f64>, f64)> =
-        motions.iter().map(|m| (m.a, m.b, m.weight)).collect();
-    let used = used_indices(reports);
-    let sel: Vec<RelativeMotion> = used
-        .iter()
-        .filter_map(|&k| motions.get(k).copied())
-        .collect();
-    let kept = degeneracy_kept(&sel, opts)?;
-    // Linear: rotation from the Kronecker null space (scale-free), translation with one
-    // scale per pair eliminated ([`mono_translation`]).
-    let mut r_x = kronecker::rotation_camera_from_tool0(&kept)?.transpose();
-    let translation_failure = HandEyeError::NumericalFailure {
-        method: opts.method,
-        what: "monocular translation with per-pair scales (hand rotations about one axis?)",
-    };
-    let mut linear = None;
-    let mut sol: Option<HandEyeSolution> = None;
-    for round in 0..MONO_SCALE_ALTERNATIONS {
-        // (1) R_X fixed: t_X and the per-pair scales by linear least squares.
-        let used = used_indices(reports);
-        let sel_unit: Vec<_> = used.iter().filter_map(|&k| unit.get(k).copied()).collect();
-        let (t_x, _) = mono_translation(&sel_unit, &r_x).ok_or(translation_failure.clone())?;
-        let x = Isometry3::from_parts(Translation3::from(t_x), UnitQuaternion::from_matrix(&r_x));
-        if linear.is_none() {
-            linear = Some(x);
-        }
-        let scales = scales_from_x(&unit, &x);
-        for (k, (m, s)) in motions.iter_mut().zip(&scales).enumerate() {
-            let Some((a, _, _)) = unit.get(k) else {
-                continue;
-            };
-            m.a = Isometry3::from_parts(Translation3::from(a.translation.vector * *s), a.rotation);
-            let Some(r) = reports.get_mut(k) else {
-                continue;
-            };
-            r.scale = *s;
-            match r.rejected {
-                None if *s <= 0.0 => {
-                    r.rejected = Some(PairRejection::NonPositiveScale { scale: *s });
-                }
-                Some(PairRejection::NonPositiveScale { .. }) if *s > 0.0 => r.rejected = None,
-                _ => {}
-            }
-        }
-        let used = used_indices(reports);
-        if used.len() < MIN_PAIRS {
-            return Err(too_few_pairs(reports));
-        }
-        // (2) Scales fixed: X by the pose LM on the metric motions.
-        let s = solve_used(reports, &used, motions, opts)?;
-        r_x = s
-            .tool0_from_camera
-            .rotation
-            .to_rotation_matrix()
-            .into_inner();
-        if round + 2 == MONO_SCALE_ALTERNATIONS {
-            // Pair rejection by residual before the last round.
-            reject_by_pose_residual(reports, motions, &s.tool0_from_camera, params);
-        }
-        sol = Some(s);
-    }
-    let (Some(sol), Some(linear)) = (sol, linear) else {
-        return Err(too_few_pairs(reports));
-    };
-    Ok((sol, linear, None))
 }

@@ -88,14 +88,12 @@ use super::messages::{
 };
 use super::pairs::extract_features;
 use super::views::{CalibView, intensity_stats};
-use super::{MIN_VIEWS, SelfCalError, SelfCalParams, SelfCalResult, self_calibrate};
+use super::{MIN_VIEWS, SelfCalError, SelfCalMethod, SelfCalParams, SelfCalResult, self_calibrate};
 use crate::features::KeypointDistribution;
 use crate::relpose::CameraModel;
 
 /// Producer name of the stage (channel metadata `producer=calibration`).
 pub const STAGE_NAME: &str = "calibration";
-/// Method name written in `/calibration/hand_eye` and `/calibration/matches`.
-pub const METHOD: &str = "ours";
 /// Match method of `/calibration/matches`.
 pub const MATCH_METHOD: &str = "orb-gms";
 /// Task name of the stage's answers on `/task/event`.
@@ -137,6 +135,9 @@ pub struct CalibrationStageConfig {
     pub seed: u64,
     /// ORB keypoint selection of the calibration. Default the paper's quadtree.
     pub orb_distribution: KeypointDistribution,
+    /// The self-calibration method (its steps, [`SelfCalMethod::steps`]); its name is the
+    /// `method` of `/calibration/hand_eye`. Default ours.
+    pub method: SelfCalMethod,
 }
 
 impl Default for CalibrationStageConfig {
@@ -156,6 +157,7 @@ impl Default for CalibrationStageConfig {
             ignore_depth: false,
             seed: SelfCalParams::default().seed,
             orb_distribution: KeypointDistribution::Quadtree,
+            method: SelfCalMethod::Ours,
         }
     }
 }
@@ -539,7 +541,7 @@ impl CalibrationStage {
     }
 
     fn selfcal_params(&self, camera: &CameraModel) -> SelfCalParams {
-        let mut p = SelfCalParams::for_camera(camera);
+        let mut p = SelfCalParams::for_method(camera, self.config.method);
         p.seed = self.config.seed;
         p.orb.distribution = self.config.orb_distribution;
         p
@@ -684,7 +686,7 @@ impl CalibrationStage {
         }
         out.push((
             topics::CALIBRATION_HAND_EYE.to_owned(),
-            Msg::HandEyeCalibration(hand_eye_msg(&result, stamp)),
+            Msg::HandEyeCalibration(hand_eye_msg(&result, self.config.method.name(), stamp)),
         ));
         let s = &result.solution;
         let ok = s.residual_rot_deg <= self.config.max_residual_rot_deg
@@ -810,12 +812,11 @@ impl CalibrationStage {
             out.push(Self::log(Log::ERROR, log_time, text.clone()));
             return (TaskEvent::REFUSED, "cannot_tell", text);
         };
+        let mut selfcal = self.selfcal_params(&camera);
+        // As the drift check's defaults (see DriftParams::selfcal).
+        selfcal.steps.angle_prior = DriftParams::default().selfcal.steps.angle_prior;
         let params = DriftParams {
-            selfcal: SelfCalParams {
-                // As the drift check's defaults (see DriftParams::selfcal).
-                mono_angle_tolerance_deg: DriftParams::default().selfcal.mono_angle_tolerance_deg,
-                ..self.selfcal_params(&camera)
-            },
+            selfcal,
             ..DriftParams::default()
         };
         let report = check_drift(&self.views, &camera, &self.tool0_from_camera, &params);
@@ -892,9 +893,10 @@ impl CalibrationStage {
 
 /// The `/calibration/hand_eye` message of a result, stamped `stamp`: `frame_id` `tool0`,
 /// child `camera_color_optical_frame`, X = `tool0_from_camera`, the medians of the pair
-/// residuals, the 1-sigma uncertainty, the conditioning and the scale.
+/// residuals, the 1-sigma uncertainty, the conditioning and the scale; `method` names the
+/// self-calibration method (`ours`, `paper`, `paper+ba`).
 #[must_use]
-pub fn hand_eye_msg(result: &SelfCalResult, stamp: Time) -> HandEyeCalibration {
+pub fn hand_eye_msg(result: &SelfCalResult, method: &str, stamp: Time) -> HandEyeCalibration {
     let s = &result.solution;
     HandEyeCalibration {
         header: Header {
@@ -903,7 +905,7 @@ pub fn hand_eye_msg(result: &SelfCalResult, stamp: Time) -> HandEyeCalibration {
         },
         child_frame_id: MOUNT_CHILD_FRAME.to_owned(),
         tool0_from_camera: transform_msg(&s.tool0_from_camera),
-        method: METHOD.to_owned(),
+        method: method.to_owned(),
         mode: result.mode.name().to_owned(),
         views: u32::try_from(s.views).unwrap_or(u32::MAX),
         pairs: u32::try_from(s.pairs).unwrap_or(u32::MAX),

@@ -114,8 +114,10 @@ pub fn calibration_yaml(result: &SelfCalResult, method: &str, child_frame: &str)
 /// plus `features_per_view`, the linear initialisation (`linear_translation_m`,
 /// `linear_quaternion_xyzw`) and `pair_reports`: one object per pair `i < j` with
 /// `i, j, hand_rotation_deg, raw_matches, matches, inliers, scale, residual_rot_deg,
-/// residual_trans_mm, eq15_rms_mm, used, rejected` (the reason text or `null`). Non-finite
-/// figures become `null`.
+/// residual_trans_mm, eq15_rms_mm, used, rejected` (the reason text or `null`), `steps` (the
+/// [`super::Steps`] that ran, by name) and, when eq. 15 ran, `eq15`: `{"world_points"
+/// (fixed_from_start | alternated | retriangulated | joint), "points", "views", "observations", "iterations",
+/// "initial_cost", "final_cost"` (m^2), `"rms_mm"}`. Non-finite figures become `null`.
 pub fn result_json(result: &SelfCalResult, method: &str, child_frame: &str) -> serde_json::Value {
     let mut v =
         crate::handeye::calibration_json(&result.solution, method, result.mode.name(), child_frame);
@@ -155,6 +157,37 @@ pub fn result_json(result: &SelfCalResult, method: &str, child_frame: &str) -> s
             serde_json::json!([lq.x, lq.y, lq.z, lq.w]),
         );
         obj.insert("pair_reports".to_owned(), serde_json::Value::Array(pairs));
+        let st = &result.steps;
+        obj.insert(
+            "steps".to_owned(),
+            serde_json::json!({
+                "rigid_ransac": st.rigid_ransac,
+                "depth_weighted_motion": st.depth_weighted_motion,
+                "image_motion": st.image_motion,
+                "pose_refinement": st.pose_refinement,
+                "pair_rejection": st.pair_rejection,
+                "final_refinement": st.final_refinement.name(),
+                "angle_prior": st.angle_prior,
+                "guided_round": st.guided_round,
+                "epipolar_refinement": st.epipolar_refinement,
+                "consistency": st.consistency,
+            }),
+        );
+        if let Some(e) = &result.eq15 {
+            obj.insert(
+                "eq15".to_owned(),
+                serde_json::json!({
+                    "world_points": e.world_points.name(),
+                    "points": e.points,
+                    "views": e.views,
+                    "observations": e.observations,
+                    "iterations": e.iterations,
+                    "initial_cost": e.initial_cost,
+                    "final_cost": e.final_cost,
+                    "rms_mm": e.rms_m * 1e3,
+                }),
+            );
+        }
     }
     v
 }
