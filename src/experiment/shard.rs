@@ -1,8 +1,9 @@
 //! Sharding an experiment over processes or machines, and merging the shards.
 //!
 //! An experiment is a deterministic list of work items (trials, runs, pairs), each run by a
-//! pure function of its item and the settings. `--shard K/N` runs the items `i` with
-//! `i mod N = K` (round robin, so each shard gets the same mix of conditions) and writes their
+//! pure function of its item and the settings. `--shard K/N` deals the items round robin in
+//! a fixed shuffled order and runs the K-th hand ([`Shard::items_of`]: near-equal counts, and
+//! the same mix of conditions in every shard whatever the period of the item order) and writes their
 //! per-item records to `DIR/shard.cbor` instead of a report (CBOR, which keeps every float
 //! exactly, NaN and infinities included, where JSON would turn them into nulls). `rodlog experiment merge`
 //! reads the shard files, checks that they come from the same build, the same arguments and
@@ -17,6 +18,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
+
+/// Seed of the shuffle that deals an experiment's items to shards ([`Shard::items_of`]).
+pub const DEAL_SEED: u64 = 0x5A4D_D3A1;
 
 /// Name of a shard's record file.
 pub const SHARD_FILE: &str = "shard.cbor";
@@ -46,10 +50,36 @@ impl Shard {
         Ok(Self { index, count })
     }
 
-    /// Whether item `i` belongs to this shard.
+    /// Whether item `i` belongs to this shard when items are dealt plainly round robin
+    /// (`i mod N = K`; recordings in path order).
     #[must_use]
     pub fn owns(self, i: usize) -> bool {
         i % self.count == self.index
+    }
+
+    /// The items of an experiment of `items` items that this shard runs, ascending.
+    ///
+    /// The items are shuffled by a fixed Fisher-Yates permutation (SplitMix64 seeded with
+    /// [`DEAL_SEED`], so every shard and every machine deals the same hands) and dealt round
+    /// robin: each shard gets `items / N` or one more. Dealing in item order would hand a
+    /// shard every item of one condition whenever the conditions alternate with a period
+    /// that divides N (the task experiment's runs alternate a 6 s and a 1 s condition: with
+    /// two shards, one got all the long runs).
+    #[must_use]
+    pub fn items_of(self, items: usize) -> Vec<usize> {
+        let mut order: Vec<usize> = (0..items).collect();
+        let mut rng = rng::SplitMix64::new(DEAL_SEED);
+        for j in (1..items).rev() {
+            order.swap(j, rng.below(j + 1));
+        }
+        let mut mine: Vec<usize> = order
+            .into_iter()
+            .enumerate()
+            .filter(|(p, _)| p % self.count == self.index)
+            .map(|(_, i)| i)
+            .collect();
+        mine.sort_unstable();
+        mine
     }
 }
 
@@ -146,7 +176,7 @@ where
             Ok(Some(run(&all)?))
         }
         Mode::Shard(shard) => {
-            let mine: Vec<usize> = (0..items).filter(|&i| shard.owns(i)).collect();
+            let mine = shard.items_of(items);
             let started = std::time::Instant::now();
             let records = run(&mine)?;
             let wall_s = started.elapsed().as_secs_f64();
@@ -278,8 +308,10 @@ pub fn read_shards(dirs: &[PathBuf]) -> Result<(ShardFile, Merged)> {
     let mut records = BTreeMap::new();
     let mut shards = Vec::new();
     for (dir, f) in files {
+        let dealt: std::collections::BTreeSet<usize> =
+            f.shard.items_of(f.items).into_iter().collect();
         for (i, r) in f.records {
-            if !f.shard.owns(i) || i >= f.items {
+            if !dealt.contains(&i) {
                 bail!(
                     "{}: item {i} does not belong to shard {}",
                     dir.display(),
@@ -306,14 +338,28 @@ mod tests {
         assert!(Shard::parse("x").is_err() && Shard::parse("1/").is_err());
         let owned: Vec<usize> = (0..7).filter(|&i| s.owns(i)).collect();
         assert_eq!(owned, [1, 4]);
-        let total: usize = (0..3)
-            .map(|k| {
-                (0..7)
-                    .filter(|&i| Shard { index: k, count: 3 }.owns(i))
-                    .count()
-            })
-            .sum();
-        assert_eq!(total, 7);
+        // Dealt items: every item once, near-equal hands, the same hands on every call.
+        let hands: Vec<Vec<usize>> = (0..3)
+            .map(|k| Shard { index: k, count: 3 }.items_of(7))
+            .collect();
+        let mut all: Vec<usize> = hands.concat();
+        all.sort_unstable();
+        assert_eq!(all, (0..7).collect::<Vec<_>>());
+        assert!(
+            hands.iter().all(|h| h.len() == 2 || h.len() == 3),
+            "{hands:?}"
+        );
+        assert_eq!(hands[1], s.items_of(7));
+        // Two alternating conditions are mixed in both halves, not one condition per shard.
+        for k in 0..2 {
+            let hand = Shard { index: k, count: 2 }.items_of(40);
+            let even = hand.iter().filter(|&&i| i % 2 == 0).count();
+            assert!(
+                (5..=15).contains(&even),
+                "shard {k}: {even} even items of {}",
+                hand.len()
+            );
+        }
         Ok(())
     }
 
