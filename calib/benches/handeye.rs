@@ -7,29 +7,8 @@ use calib::handeye::{HandEyeOptions, Method, solve};
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 
-/// SplitMix64 + Box-Muller: deterministic inputs without a rand dependency.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * ((self.next_u64() >> 11) as f64 / (1u64 << 53) as f64)
-    }
-    fn gauss(&mut self, sigma: f64) -> f64 {
-        let u1 = self.uniform(f64::MIN_POSITIVE, 1.0);
-        let u2 = self.uniform(0.0, 1.0);
-        sigma * (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-    }
-}
-
 fn data(n: usize) -> (Vec<Isometry3<f64>>, Vec<Isometry3<f64>>) {
-    let mut rng = Rng(7);
+    let mut rng = rng::SplitMix64::new(7);
     let x = Isometry3::from_parts(
         Translation3::new(0.05, 0.02, -0.08),
         UnitQuaternion::from_scaled_axis(
@@ -56,11 +35,15 @@ fn data(n: usize) -> (Vec<Isometry3<f64>>, Vec<Isometry3<f64>>) {
         );
         let world_from_cam = base_from_world.inverse() * h * x;
         let noise = Isometry3::from_parts(
-            Translation3::new(rng.gauss(1e-3), rng.gauss(1e-3), rng.gauss(1e-3)),
+            Translation3::new(
+                1e-3 * rng.normal(),
+                1e-3 * rng.normal(),
+                1e-3 * rng.normal(),
+            ),
             UnitQuaternion::from_scaled_axis(Vector3::new(
-                rng.gauss(1e-3),
-                rng.gauss(1e-3),
-                rng.gauss(1e-3),
+                1e-3 * rng.normal(),
+                1e-3 * rng.normal(),
+                1e-3 * rng.normal(),
             )),
         );
         hand.push(h);

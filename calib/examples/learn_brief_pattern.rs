@@ -36,9 +36,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut full = textured_image(640, 480, 1000 + seed);
         // Sensor-like noise (sum of three uniforms, sigma ~4.5 gray levels): real images
         // have no perfectly flat areas, where `<` would bias tests towards 0.
-        let mut noise = SplitMix64(2000 + seed);
+        let mut noise = SplitMix64::new(2000 + seed);
         for p in &mut full.data {
-            let n = (noise.uniform() + noise.uniform() + noise.uniform() - 1.5) * 9.0;
+            let n = (noise.next_f64() + noise.next_f64() + noise.next_f64() - 1.5) * 9.0;
             *p = (f64::from(*p) + n).round().clamp(0.0, 255.0) as u8;
         }
         let mut half = GrayBuf::default();
@@ -59,11 +59,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let words = n.div_ceil(64);
     eprintln!("{n} training keypoints from {} images", blurred.len());
     // 2. Candidate tests.
-    let mut rng = SplitMix64(0x0B5E_ED01);
+    let mut rng = SplitMix64::new(0x0B5E_ED01);
     let mut cands: Vec<[i64; 4]> = Vec::new();
     let mut seen = std::collections::BTreeSet::new();
     while cands.len() < N_CANDIDATES {
-        let mut c = || rng.below((2 * R + 1) as u64) as i64 - R;
+        let mut c = || (rng.next_u64() % (2 * R + 1) as u64) as i64 - R; // modulo: the committed pattern was drawn so
         let t = [c(), c(), c(), c()];
         if (t[0] - t[2]).abs() < 5 && (t[1] - t[3]).abs() < 5 {
             continue;

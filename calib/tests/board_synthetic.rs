@@ -1,5 +1,5 @@
 //! Ground truth for the board front end: chessboards rendered through a `plumb_bob` camera
-//! (the DESIGN.md wrist camera: 1280x1024, f = 1745 px, small distortion), antialiased
+//! (the wrist camera of ARCHITECTURE.md section 6: 1280x1024, f = 1745 px, small distortion), antialiased
 //! (6x6 sub-samples), with 2 grey levels of Gaussian noise ([`calib::board::render`]).
 //!
 //! - a single view: detection + sub-pixel + PnP recover corners and pose within tight bounds;

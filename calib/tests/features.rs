@@ -131,23 +131,23 @@ fn orientation_follows_patch_rotation() {
 #[test]
 fn quadtree_gives_exact_count_and_spread() {
     // 6000 points, 80% packed into one corner cluster with higher responses.
-    let mut rng = SplitMix64(7);
+    let mut rng = SplitMix64::new(7);
     let (w, h) = (640.0f32, 480.0f32);
     let mut xy = Vec::new();
     let mut resp = Vec::new();
     for i in 0..6000 {
         if i % 5 != 0 {
             xy.push([
-                (rng.uniform() * 100.0) as f32,
-                (rng.uniform() * 100.0) as f32,
+                (rng.next_f64() * 100.0) as f32,
+                (rng.next_f64() * 100.0) as f32,
             ]);
-            resp.push(100.0 + rng.uniform() as f32);
+            resp.push(100.0 + rng.next_f64() as f32);
         } else {
             xy.push([
-                (rng.uniform() * f64::from(w)) as f32,
-                (rng.uniform() * f64::from(h)) as f32,
+                (rng.next_f64() * f64::from(w)) as f32,
+                (rng.next_f64() * f64::from(h)) as f32,
             ]);
-            resp.push(rng.uniform() as f32);
+            resp.push(rng.next_f64() as f32);
         }
     }
     let mut out = Vec::new();
@@ -259,7 +259,7 @@ struct Planted {
 
 fn planted_matches(hb: &Matrix3<f64>, seed: u64) -> Planted {
     let (w, h) = (1280.0, 1024.0);
-    let mut rng = SplitMix64(seed);
+    let mut rng = SplitMix64::new(seed);
     let kp = |x: f64, y: f64| Keypoint {
         x: x as f32,
         y: y as f32,
@@ -271,13 +271,13 @@ fn planted_matches(hb: &Matrix3<f64>, seed: u64) -> Planted {
     let (mut kps_a, mut kps_b, mut matches, mut truth) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     while kps_a.len() < 3000 {
-        let (x, y) = (rng.uniform() * w, rng.uniform() * h);
+        let (x, y) = (rng.next_f64() * w, rng.next_f64() * h);
         let is_true = kps_a.len() % 2 == 0;
         let (bx, by) = if is_true {
             let (bx, by) = apply_homography(hb, x, y);
-            (bx + rng.uniform() - 0.5, by + rng.uniform() - 0.5)
+            (bx + rng.next_f64() - 0.5, by + rng.next_f64() - 0.5)
         } else {
-            (rng.uniform() * w, rng.uniform() * h)
+            (rng.next_f64() * w, rng.next_f64() * h)
         };
         if !(0.0..w).contains(&bx) || !(0.0..h).contains(&by) {
             continue;

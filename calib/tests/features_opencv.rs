@@ -54,7 +54,7 @@ fn gms_mask_equals_opencv() {
     let (w, h) = (1280usize, 1024usize);
     for (deg, scale) in [(25.0f64, 0.85), (90.0, 1.0), (-45.0, 0.7)] {
         let hb = similarity(deg.to_radians(), scale, 640.0, 512.0, 10.0, 20.0);
-        let mut rng = SplitMix64(5);
+        let mut rng = SplitMix64::new(5);
         let kp = |x: f64, y: f64| Keypoint {
             x: x as f32,
             y: y as f32,
@@ -65,15 +65,15 @@ fn gms_mask_equals_opencv() {
         };
         let (mut kps_a, mut kps_b, mut matches) = (Vec::new(), Vec::new(), Vec::new());
         while kps_a.len() < 2500 {
-            let (x, y) = (rng.uniform() * w as f64, rng.uniform() * h as f64);
+            let (x, y) = (rng.next_f64() * w as f64, rng.next_f64() * h as f64);
             let (bx, by) = if kps_a.len() % 3 != 0 {
                 let (bx, by) = apply_homography(&hb, x, y);
                 (
-                    bx + 2.0 * rng.uniform() - 1.0,
-                    by + 2.0 * rng.uniform() - 1.0,
+                    bx + 2.0 * rng.next_f64() - 1.0,
+                    by + 2.0 * rng.next_f64() - 1.0,
                 )
             } else {
-                (rng.uniform() * w as f64, rng.uniform() * h as f64)
+                (rng.next_f64() * w as f64, rng.next_f64() * h as f64)
             };
             if !(0.0..w as f64).contains(&bx) || !(0.0..h as f64).contains(&by) {
                 continue;

@@ -200,7 +200,7 @@ mod relpose {
 
     #[test]
     fn anisotropic_refinement_beats_plain_umeyama_under_z2_depth_noise() {
-        // DESIGN.md wrist camera: 0.3-0.6 m, 0.1 mm at 0.5 m growing with z^2, 0.5 px keypoints.
+        // ARCHITECTURE.md section 6, the wrist camera: 0.3-0.6 m, 0.1 mm at 0.5 m growing with z^2, 0.5 px keypoints.
         let spec = SceneSpec::noisy(300, 0.0, 9000);
         let m = weighted_vs_plain(spec, 30, &DepthNoiseModel::default());
         eprintln!(

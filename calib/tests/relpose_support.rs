@@ -6,7 +6,7 @@ use calib::relpose::CameraModel;
 use calib::relpose::ransac::SplitMix64;
 use nalgebra::{Isometry3, Point2, Point3, Translation3, UnitQuaternion, Vector2, Vector3};
 
-/// The wrist camera of DESIGN.md s6 with a small plumb_bob distortion.
+/// The wrist camera of ARCHITECTURE.md section 6 with a small plumb_bob distortion.
 pub fn wrist_camera() -> CameraModel {
     CameraModel {
         width: 1280,
@@ -64,7 +64,7 @@ impl SceneSpec {
             seed,
         }
     }
-    /// DESIGN.md noise (0.5 px keypoints, 0.1 mm depth at 0.5 m growing with z^2).
+    /// the noise of ARCHITECTURE.md section 6 (0.5 px keypoints, 0.1 mm depth at 0.5 m growing with z^2).
     pub fn noisy(n: usize, outlier_fraction: f64, seed: u64) -> Self {
         Self {
             n,
@@ -102,7 +102,7 @@ pub struct Scene {
 }
 
 fn uniform(rng: &mut SplitMix64, lo: f64, hi: f64) -> f64 {
-    lo + (hi - lo) * rng.unit_f64()
+    lo + (hi - lo) * rng.next_f64()
 }
 
 fn random_pixel(rng: &mut SplitMix64, cam: &CameraModel) -> Point2<f64> {
@@ -140,7 +140,7 @@ pub fn generate(spec: &SceneSpec, a_from_b: &Isometry3<f64>) -> Scene {
         if !cam.contains(&px_a_true) || p_a_true.z < 0.1 {
             continue;
         }
-        let outlier = rng.unit_f64() < spec.outlier_fraction;
+        let outlier = rng.next_f64() < spec.outlier_fraction;
         if outlier {
             px_a_true = random_pixel(&mut rng, &cam);
             let z_a = uniform(&mut rng, spec.depth_min_m, spec.depth_max_m);

@@ -237,7 +237,7 @@ fn selfcal_yaml_names_direction_and_inverse() {
     let line = format!("translation_m: [{:?}, {:?}, {:?}]", t.x, t.y, t.z);
     let first = yaml.find("translation_m").unwrap_or(usize::MAX);
     assert_eq!(yaml.find(&line), Some(first), "{yaml}");
-    // The JSON: DESIGN.md s4 fields, tool0_from_camera, mode, and the per-pair reports.
+    // The JSON: ARCHITECTURE.md section 4 fields, tool0_from_camera, mode, and the per-pair reports.
     let json = result_json(&res, "ours", "camera_color_optical_frame");
     assert_eq!(json["mode"], "rgbd");
     assert_eq!(json["frame"], "tool0");
@@ -271,7 +271,7 @@ fn selfcal_is_deterministic_across_thread_counts() {
 
 #[test]
 fn selfcal_rgbd_with_hand_and_depth_noise() {
-    // DESIGN.md s6: hand poses are never perfect (~0.2 mm, ~0.02 deg per joint) and depth
+    // ARCHITECTURE.md section 6: hand poses are never perfect (~0.2 mm, ~0.02 deg per joint) and depth
     // noise is ~0.1 mm at 0.5 m growing with z^2.
     let x_true = sup::true_x();
     let (mut views, cam) = sup::views(&sup::camera_poses(16), &x_true, true);

@@ -231,7 +231,7 @@ fn drift_check_refuses_too_few_views_and_dark_views() {
 
 /// Monocular views: the essential-matrix rotations (~0.3 deg) and translation directions
 /// cannot resolve a 0.5 deg / 3 mm bump from four views, so an unmoved mount is not called
-/// consistent but CannotTell; a 3 deg bump (DESIGN.md s6's are 1-3 deg and 3-10 mm) is
+/// consistent but CannotTell; a 3 deg bump (ARCHITECTURE.md section 6's are 1-3 deg and 3-10 mm) is
 /// still seen.
 #[test]
 fn drift_check_mono_reports_large_bumps_and_cannot_confirm_small_ones() {

@@ -1,4 +1,4 @@
-//! The calibration stage over a message stream (DESIGN.md s3): synthetic RGB-D captures with
+//! The calibration stage over a message stream (ARCHITECTURE.md section 3): synthetic RGB-D captures with
 //! their /tf, the camera edge on /tf with every /joint_states (nominal, then the accepted
 //! calibration), `/calibration/hand_eye` and `/calibration/matches`, and the refusals on
 //! `/rosout` (dark view, near-duplicate view, missing TF, depth/colour stamp mismatch, too

@@ -1,6 +1,6 @@
 //! Images + intrinsics -> per-image board poses (`world_from_camera`, board frame = world)
 //! and reprojection RMS: the library side of `rodlog calib board REC.mcap --board COLSxROWS
-//! --square M` (DESIGN.md s4), whose poses feed [`crate::handeye::solve`] as eye poses.
+//! --square M` (ARCHITECTURE.md section 4), whose poses feed [`crate::handeye::solve`] as eye poses.
 //!
 //! Per image: [`detect_chessboard`] (pixel lattice), [`refine_corners`] at full resolution
 //! with a half window of `min(SubPixParams::half_window_px, 0.35 * square side in px)` (the

@@ -1,9 +1,9 @@
-//! Chessboard calibration front end (issue 7): inner-corner detection, sub-pixel refinement,
+//! Chessboard calibration front end: inner-corner detection, sub-pixel refinement,
 //! planar PnP, per-image board poses for the AX=XB solvers of [`crate::handeye`].
 //!
 //! # Conventions
 //!
-//! Transforms are named `a_from_b` (`p_in_a = a_from_b * p_in_b`, DESIGN.md s6). The board
+//! Transforms are named `a_from_b` (`p_in_a = a_from_b * p_in_b`, ARCHITECTURE.md section 6). The board
 //! frame is the world frame of the eye poses: its origin is the first inner corner, `x` runs
 //! along a row (the `cols` direction), `y` down the rows, `z = x cross y` points into the
 //! board, away from a camera that sees its printed side (OpenCV's `calibrateCamera`
@@ -103,7 +103,7 @@ impl BoardSpec {
         Ok(spec)
     }
 
-    /// From the CLI arguments `--board COLSxROWS --square METRES` (DESIGN.md s4): `"6x8"`
+    /// From the CLI arguments `--board COLSxROWS --square METRES` (ARCHITECTURE.md section 4): `"6x8"`
     /// (or `6X8`) counts inner corners.
     ///
     /// # Errors

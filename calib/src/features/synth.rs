@@ -6,38 +6,16 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::gray::{BlurScratch, GrayBuf, gaussian_blur7};
 
-/// SplitMix64 (Steele, Lea & Flood 2014): a tiny, seeded, well-mixed generator.
-#[derive(Clone, Debug)]
-pub struct SplitMix64(pub u64);
-
-impl SplitMix64 {
-    /// Next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `[0, 1)`.
-    pub fn uniform(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    /// Uniform integer in `[0, n)` (`n > 0`).
-    pub fn below(&mut self, n: u64) -> u64 {
-        self.next_u64() % n.max(1)
-    }
-}
+/// The seeded generator of the synthetic scenes (rodlog's one SplitMix64).
+pub use rng::SplitMix64;
 
 /// A `width x height` textured scene from `seed`: a smooth gradient, ~1 shape per 2500
 /// pixels (axis-aligned and rotated rectangles, discs) of random gray levels, blob noise
 /// (random 8x8 blocks of noise upsampled), then a 7x7 Gaussian blur.
 pub fn textured_image(width: usize, height: usize, seed: u64) -> GrayBuf {
-    let mut rng = SplitMix64(seed);
+    let mut rng = SplitMix64::new(seed);
     let mut f = vec![0f32; width * height];
-    let (gx, gy) = (rng.uniform() * 60.0 - 30.0, rng.uniform() * 60.0 - 30.0);
+    let (gx, gy) = (rng.next_f64() * 60.0 - 30.0, rng.next_f64() * 60.0 - 30.0);
     for y in 0..height {
         for x in 0..width {
             f[y * width + x] = 128.0
@@ -47,13 +25,13 @@ pub fn textured_image(width: usize, height: usize, seed: u64) -> GrayBuf {
     }
     let shapes = (width * height / 2500).max(4);
     for _ in 0..shapes {
-        let cx = rng.uniform() * width as f64;
-        let cy = rng.uniform() * height as f64;
-        let a = 4.0 + rng.uniform() * 40.0;
-        let b = 4.0 + rng.uniform() * 40.0;
-        let th = rng.uniform() * std::f64::consts::PI;
-        let level = (rng.uniform() * 255.0) as f32;
-        let kind = rng.below(3);
+        let cx = rng.next_f64() * width as f64;
+        let cy = rng.next_f64() * height as f64;
+        let a = 4.0 + rng.next_f64() * 40.0;
+        let b = 4.0 + rng.next_f64() * 40.0;
+        let th = rng.next_f64() * std::f64::consts::PI;
+        let level = (rng.next_f64() * 255.0) as f32;
+        let kind = rng.next_u64() % 3; // modulo, not `below`: the committed scenes and BRIEF pattern were drawn so
         let (s, c) = th.sin_cos();
         let r = a.max(b) * 1.5;
         let (x0, x1) = ((cx - r).max(0.0) as usize, ((cx + r) as usize).min(width));
@@ -78,7 +56,7 @@ pub fn textured_image(width: usize, height: usize, seed: u64) -> GrayBuf {
     // Blob noise: 8x8 blocks of random amplitude +-25, nearest-neighbour upsampled.
     let (bw, bh) = (width.div_ceil(8), height.div_ceil(8));
     let blocks: Vec<f32> = (0..bw * bh)
-        .map(|_| (rng.uniform() * 50.0 - 25.0) as f32)
+        .map(|_| (rng.next_f64() * 50.0 - 25.0) as f32)
         .collect();
     let mut img = GrayBuf::default();
     img.reshape(width, height);

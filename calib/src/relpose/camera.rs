@@ -24,7 +24,7 @@ pub const UNDISTORT_MAX_ITERATIONS: usize = 50;
 /// normalised coordinates (about 2e-9 px at f = 1745 px).
 pub const UNDISTORT_TOLERANCE: f64 = 1e-12;
 
-/// Pinhole intrinsics plus `plumb_bob` distortion, as in `camera.yaml` (DESIGN.md s5).
+/// Pinhole intrinsics plus `plumb_bob` distortion, as in `camera.yaml` (ARCHITECTURE.md section 5).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct CameraModel {
     /// Image width in pixels.

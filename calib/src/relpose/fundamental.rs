@@ -1,6 +1,6 @@
 //! Fundamental matrix from pixel correspondences: normalised 8-point algorithm inside a
 //! seeded RANSAC with the Sampson distance, then a least-squares refit on the inliers. The
-//! geometric verification of the "AKAZE + RANSAC" matching baseline (issue 6): the scenes
+//! geometric verification of the "AKAZE + RANSAC" matching baseline: the scenes
 //! are 3D, so a homography would reject correct matches off the dominant plane.
 //!
 //! **Model.** Pixels `x_a`, `x_b` (homogeneous) of one scene point in images `a` and `b`
@@ -348,9 +348,9 @@ mod tests {
         let (mut xa, mut xb, mut truth) = (Vec::new(), Vec::new(), Vec::new());
         while xa.len() < n {
             let pb = Vector3::new(
-                (rng.unit_f64() - 0.5) * 4.0,
-                (rng.unit_f64() - 0.5) * 3.0,
-                2.0 + 4.0 * rng.unit_f64(),
+                (rng.next_f64() - 0.5) * 4.0,
+                (rng.next_f64() - 0.5) * 3.0,
+                2.0 + 4.0 * rng.next_f64(),
             );
             let pa = r * pb + t;
             let (qa, qb) = (k * pa, k * pb);
@@ -361,11 +361,11 @@ mod tests {
             if pa.z <= 0.0 || !inside(&a) || !inside(&b) {
                 continue;
             }
-            if rng.unit_f64() < outlier_fraction {
+            if rng.next_f64() < outlier_fraction {
                 xa.push(a);
                 xb.push(Point2::new(
-                    rng.unit_f64() * 1280.0,
-                    rng.unit_f64() * 1024.0,
+                    rng.next_f64() * 1280.0,
+                    rng.next_f64() * 1024.0,
                 ));
                 truth.push(false);
             } else {
@@ -458,7 +458,7 @@ mod tests {
         let (_, xa, _, _) = scene(100, 0.0, 0.0, 5);
         let mut rng = SplitMix64::new(4);
         let random: Vec<Point2<f64>> = (0..100)
-            .map(|_| Point2::new(rng.unit_f64() * 1280.0, rng.unit_f64() * 1024.0))
+            .map(|_| Point2::new(rng.next_f64() * 1280.0, rng.next_f64() * 1024.0))
             .collect();
         let params = FundamentalParams {
             min_inliers: 40,

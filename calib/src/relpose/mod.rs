@@ -1,8 +1,8 @@
-//! Relative camera motion between two views from matched points (issue 8).
+//! Relative camera motion between two views from matched points.
 //!
 //! # Conventions
 //!
-//! Transforms are named `a_from_b`: `p_in_a = a_from_b * p_in_b` (DESIGN.md s6). For views
+//! Transforms are named `a_from_b`: `p_in_a = a_from_b * p_in_b` (ARCHITECTURE.md section 6). For views
 //! `i`, `j` the pipeline calls these estimators with `a = cam_i`, `b = cam_j`, so the result
 //! is `A_ij = cam_i_from_cam_j`. Camera frames use OpenCV optical axes (x right, y down,
 //! z forward); f64; metres and radians inside. Normalised image coordinates are
@@ -23,7 +23,7 @@
 //! no consensus, and for the essential matrix a pure rotation (zero baseline: the translation
 //! direction is undefined), detected by a rotation-only model explaining the inliers.
 //!
-//! # Accuracy (synthetic, DESIGN.md wrist camera: 0.5 px keypoints, 0.1 mm depth at 0.5 m
+//! # Accuracy (synthetic, ARCHITECTURE.md section 6, the wrist camera: 0.5 px keypoints, 0.1 mm depth at 0.5 m
 //! growing with `z^2`, 20 deg / (0.08, -0.03, 0.02) m, ~300 inliers, 30-50% outliers)
 //!
 //! Noise-free: both estimators exact to 1e-9. Rigid: 0.008-0.014 deg, 0.02-0.07 mm, at the
@@ -40,6 +40,7 @@
 
 pub mod camera;
 pub mod essential;
+pub mod five_point;
 pub mod fundamental;
 pub mod homography;
 pub mod ransac;

@@ -15,65 +15,8 @@
 //! Samples come from [`SplitMix64`] (Steele, Lea & Flood 2014), a counter-based generator:
 //! the k-th draw is `mix(seed + k * 0x9E3779B97F4A7C15)`, independent of threads and clocks.
 
-/// Counter-based SplitMix64 generator (Steele, Lea & Flood, OOPSLA 2014).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct SplitMix64 {
-    state: u64,
-}
-
-impl SplitMix64 {
-    /// Golden-ratio increment of the counter.
-    const GAMMA: u64 = 0x9E37_79B9_7F4A_7C15;
-
-    /// A generator whose stream is fully determined by `seed`.
-    pub fn new(seed: u64) -> Self {
-        Self { state: seed }
-    }
-
-    /// Next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.state = self.state.wrapping_add(Self::GAMMA);
-        let mut z = self.state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform integer in `[0, n)` (Lemire's multiply-shift; bias < n / 2^64). `n = 0` gives 0.
-    pub fn below(&mut self, n: usize) -> usize {
-        ((u128::from(self.next_u64()) * n as u128) >> 64) as usize
-    }
-
-    /// Uniform float in `[0, 1)` with 53 random bits.
-    pub fn unit_f64(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-    }
-
-    /// Standard normal deviate (Box-Muller).
-    pub fn normal(&mut self) -> f64 {
-        let u1 = 1.0 - self.unit_f64();
-        let u2 = self.unit_f64();
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-    }
-
-    /// Fills `out` with `out.len()` distinct indices in `[0, n)` (rejection; `out.len()` is a
-    /// small minimal-sample size). Returns false, drawing nothing, when `n < out.len()`.
-    pub fn distinct(&mut self, n: usize, out: &mut [usize]) -> bool {
-        let k = out.len();
-        if n < k {
-            return false;
-        }
-        let mut filled = 0;
-        while filled < k {
-            let c = self.below(n);
-            if !out[..filled].contains(&c) {
-                out[filled] = c;
-                filled += 1;
-            }
-        }
-        true
-    }
-}
+/// The seeded generator RANSAC samples with (rodlog's one SplitMix64).
+pub use rng::SplitMix64;
 
 /// Stopping rule of [`ransac`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -300,7 +243,7 @@ mod tests {
                 assert!(!out[..i].contains(x));
             }
         }
-        let u = a.unit_f64();
+        let u = a.next_f64();
         assert!((0.0..1.0).contains(&u));
     }
 

@@ -12,7 +12,7 @@
 //! with `C_i` re-evaluated at the current `R` each outer iteration. The per-point covariance of
 //! a structured-light point `p = z (x, y, 1)` ([`DepthNoiseModel`]) is
 //! `S = s_z(z)^2 m m^T + (s_px z / f)^2 diag(1, 1, 0)` with `m = (x, y, 1)` the viewing ray
-//! (depth noise moves the point along its ray), `s_z(z) = s_ref (z / z_ref)^2` (DESIGN.md s6:
+//! (depth noise moves the point along its ray), `s_z(z) = s_ref (z / z_ref)^2` (ARCHITECTURE.md section 6:
 //! ~0.1 mm at 0.5 m, growing with `z^2`) and the pixel noise `s_px` scaled by `z / f`. Without
 //! a noise model `C_i = I` (plain point-to-point least squares, i.e. Umeyama's optimum).
 //! Updates: `R <- exp([w]x) R`, `t <- t + dt`; `dr_i/dw = [R p_b,i]x`, `dr_i/dt = -I`.
@@ -37,7 +37,7 @@ use nalgebra::{
 
 use super::{RelPoseError, check_lengths, skew};
 
-/// Noise of structured-light depth points (DESIGN.md s6 wrist camera).
+/// Noise of structured-light depth points (ARCHITECTURE.md section 6 wrist camera).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DepthNoiseModel {
     /// Depth standard deviation at [`DepthNoiseModel::ref_depth_m`], metres; default 1e-4.

@@ -7,7 +7,7 @@ use calib::selfcal::CalibView;
 use image::GrayImage;
 use nalgebra::{Isometry3, Point2, Point3, Translation3, UnitQuaternion, Vector3};
 
-/// The asymmetric true mount of DESIGN.md s6: t = (0.05, 0.02, -0.08) m, 30 deg about a skew
+/// The asymmetric true mount of ARCHITECTURE.md section 6: t = (0.05, 0.02, -0.08) m, 30 deg about a skew
 /// axis.
 pub fn true_x() -> Isometry3<f64> {
     let axis = nalgebra::Unit::new_normalize(Vector3::new(1.0, 2.0, 3.0));
@@ -247,7 +247,7 @@ pub fn views(
     views_with_camera(cam_poses, x, with_depth, camera())
 }
 
-/// The wrist camera of DESIGN.md s6: 1280x1024, f = 1745 px, small plumb_bob distortion.
+/// The wrist camera of ARCHITECTURE.md section 6: 1280x1024, f = 1745 px, small plumb_bob distortion.
 pub fn wrist_camera() -> CameraModel {
     let mut c = CameraModel::pinhole(1280, 1024, 1745.0, 1745.0, 639.5, 511.5);
     c.k1 = -0.04;
