@@ -1,4 +1,4 @@
-//! Wire perception against the simulator (issue 11, "what must be shown").
+//! Wire perception against the simulator.
 //!
 //! `cargo run --release --example perception_sim [-- SCENES [SCALE [all|handle]]]` runs the
 //! full protocol (default 100 seeded scenes at full wrist resolution) in three light
@@ -33,7 +33,7 @@
 //! simulator's rod.
 //!
 //! Refusals (`PerceptionError`) are counted per condition, never dropped silently; the hook
-//! window (±15 mm across, ±10 mm along the approach, DESIGN.md s6) is checked on every
+//! window (±15 mm across, ±10 mm along the approach, ARCHITECTURE.md section 6) is checked on every
 //! accepted estimate.
 
 use anyhow::Context as _;
@@ -66,11 +66,11 @@ pub const PRIOR_TILT_DEG: f64 = 3.0;
 pub const PRIOR_HALF_LENGTH_M: f64 = 0.25;
 /// ROI margin around the projected prior (m at the wire, turned into pixels per capture).
 pub const ROI_MARGIN_M: f64 = 0.06;
-/// Working distance range of the wrist camera (m), DESIGN.md s6.
+/// Working distance range of the wrist camera (m), ARCHITECTURE.md section 6.
 pub const STANDOFF_RANGE_M: (f64, f64) = (0.3, 0.6);
-/// Hook capture window across the wire (m), DESIGN.md s6.
+/// Hook capture window across the wire (m), ARCHITECTURE.md section 6.
 pub const HOOK_ACROSS_M: f64 = 0.015;
-/// Hook capture window along the approach (m), DESIGN.md s6.
+/// Hook capture window along the approach (m), ARCHITECTURE.md section 6.
 pub const HOOK_APPROACH_M: f64 = 0.010;
 
 /// A light condition: a name and the range of hours drawn from.
@@ -91,7 +91,7 @@ pub const DAYLIGHT: Condition = Condition {
     hours: (11.0, 11.0),
     washout: None,
 };
-/// Sunset, 18:00: ~400 lx (DESIGN.md s6; `sim::render::light`).
+/// Sunset, 18:00: ~400 lx (ARCHITECTURE.md section 6; `sim::render::light`).
 pub const DUSK_400LX: Condition = Condition {
     name: "dusk 18:00 (400 lx)",
     hours: (18.0, 18.0),

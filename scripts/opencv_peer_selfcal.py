@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""OpenCV peer of `rodlog calib self` (issue 8): hand-eye self-calibration from natural
+"""OpenCV peer of `rodlog calib self`: hand-eye self-calibration from natural
 features with stock OpenCV, on a rodlog recording (ROS 2 MCAP, decoded by mcap_ros2).
 
 Usage: opencv_peer_selfcal.py REC.mcap [--mode auto|rgbd|mono] [--features sift|orb]

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Scores hand-eye results against the simulator's true mount (issue 8 comparison).
+"""Scores hand-eye results against the simulator's true mount.
 
 Usage: selfcal_truth_errors.py REC.mcap NAME=RESULT.json [NAME=RESULT.json ...]
 

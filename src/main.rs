@@ -1,4 +1,4 @@
-//! `rodlog`: the command line of the substation grounding-rod robot (DESIGN.md section 4).
+//! `rodlog`: the command line of the substation grounding-rod robot (ARCHITECTURE.md section 4).
 //!
 //! `main` only parses and dispatches; each subcommand lives in its own module under `cmd/`.
 
@@ -36,7 +36,7 @@ enum Command {
     /// Import a dataset on disk as a recording.
     #[command(subcommand)]
     Import(cmd::import::ImportCommand),
-    /// Run an experiment of DESIGN.md section 7: report.md, results.json, plots.
+    /// Run an experiment of ARCHITECTURE.md section 7: report.md, results.json, plots.
     Experiment(cmd::experiment::ExperimentArgs),
     /// Show a recording in Rerun: write an .rrd, spawn a viewer or stream to one.
     View(cmd::view::ViewArgs),

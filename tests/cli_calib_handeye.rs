@@ -1,5 +1,5 @@
 //! `rodlog calib handeye` end to end: noise-free synthetic poses written as TUM files go
-//! through the binary, and every method must return the asymmetric X to 1e-9 (DESIGN.md s6:
+//! through the binary, and every method must return the asymmetric X to 1e-9 (ARCHITECTURE.md section 6:
 //! an inverted X cannot pass); scale-free data returns its scale; degenerate input is
 //! refused with a message and a non-zero exit code.
 
@@ -11,7 +11,7 @@ use std::path::Path;
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 
-/// The asymmetric test mount of DESIGN.md s6: t = (0.05, 0.02, -0.08) m, 30 deg about a
+/// The asymmetric test mount of ARCHITECTURE.md section 6: t = (0.05, 0.02, -0.08) m, 30 deg about a
 /// skew axis.
 fn true_tool0_from_camera() -> Isometry3<f64> {
     let axis = nalgebra::Unit::new_normalize(Vector3::new(1.0, -2.0, 0.5));

@@ -1,4 +1,4 @@
-//! `rodlog experiment noise|motions|datasets` (issue 9) smoke runs: 2 trials at a low
+//! `rodlog experiment noise|motions|datasets` smoke runs: 2 trials at a low
 //! resolution write report.md, results.json with every cell (attempts and refusals counted,
 //! seeds recorded) and the box plots (PNG + SVG).
 

@@ -1,4 +1,4 @@
-//! `rodlog experiment tasks|maintenance` (issue 12) smoke runs: one trial each, judged
+//! `rodlog experiment tasks|maintenance` smoke runs: one trial each, judged
 //! against the simulator's truth, write report.md, results.json (every run, seeds) and the
 //! plots. The full experiments run outside CI (README).
 

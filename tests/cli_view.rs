@@ -1,4 +1,4 @@
-//! `rodlog view` and `rodlog record --viz` end to end (issue 10): the .rrd they write is read
+//! `rodlog view` and `rodlog record --viz` end to end: the .rrd they write is read
 //! back by rerun-sdk 0.36.3 (`rerun rrd print` from the reference venv), and its entities,
 //! archetypes and row counts are checked against the MCAP they came from.
 //!
@@ -128,7 +128,7 @@ fn is_rrd(path: &Path) -> bool {
     std::fs::read(path).is_ok_and(|b| b.len() > 1000 && b.starts_with(b"RRF2"))
 }
 
-/// One message on every topic of DESIGN.md section 3 (the interop fixture).
+/// One message on every topic of ARCHITECTURE.md section 3 (the interop fixture).
 #[test]
 fn view_draws_every_topic_of_the_log_vocabulary() {
     let dir = tempfile::tempdir().expect("tmp");

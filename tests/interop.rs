@@ -1,4 +1,4 @@
-//! Interop with the Python ROS 2 / MCAP ecosystem (DESIGN.md section 3, issue 2 item 4):
+//! Interop with the Python ROS 2 / MCAP ecosystem (ARCHITECTURE.md section 3):
 //!
 //! * a rodlog recording with one message on every topic is decoded by `mcap-ros2-support` and
 //!   by `rosbags`, field by field, floats exactly (`scripts/interop/check_decode.py`);

@@ -1,4 +1,4 @@
-//! End to end (issue 11): the `perceive-wire` scenario through the simulator at low
+//! End to end: the `perceive-wire` scenario through the simulator at low
 //! resolution: the `perceive` stage fixes the wire on a panoramic frame, plans and commands
 //! the wrist look motion, captures, and answers (pose or refusal); `replay --check`
 //! reproduces every stage output; `check motion` passes on the run and fails on a recording

@@ -1,4 +1,4 @@
-//! Wire perception against the simulator, quick version (issue 11): a few seeded scenes at
+//! Wire perception against the simulator, quick version: a few seeded scenes at
 //! reduced resolution through the camera driver's messages; the full protocol and its table
 //! are `cargo run --release --example perception_sim` (same code, included below).
 

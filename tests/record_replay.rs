@@ -1,4 +1,4 @@
-//! End-to-end determinism of `rodlog record` and `rodlog replay` (issue 3), through the built
+//! End-to-end determinism of `rodlog record` and `rodlog replay`, through the built
 //! binary: same scenario twice -> same bytes; 1 vs 2 worker threads -> same bytes; realtime
 //! -> same bytes as fast; `replay --check` passes on fresh and committed recordings and fails,
 //! naming topic, log_time and field, when a stage parameter changes; a SIGKILLed recording

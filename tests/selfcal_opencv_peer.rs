@@ -1,4 +1,4 @@
-//! `rodlog calib self` against the OpenCV peer (issue 8): on one small clean `calib-18`
+//! `rodlog calib self` against the OpenCV peer: on one small clean `calib-18`
 //! recording (640x512) both calibrate from the same images, depth and /tf, and ours must be
 //! closer to the simulator's true mount (`/sim/camera_mount`, read here only) than the best
 //! of OpenCV's five `calibrateHandEye` methods on SIFT + depth-PnP motions

@@ -1,4 +1,4 @@
-//! End to end (issue 12): the `task` stage hangs and removes the rod in the simulator, the
+//! End to end: the `task` stage hangs and removes the rod in the simulator, the
 //! independent judge (`rodlog check task`) confirms it with the simulator's truth, the runs
 //! replay byte for byte, and the judge catches what is unsafe (a colliding command, commands
 //! in high wind) while a windy start is waited for, then refused without a single command.

@@ -1,4 +1,4 @@
-//! Relative pose timings on 1000 noisy matches with 30% outliers (DESIGN.md wrist camera:
+//! Relative pose timings on 1000 noisy matches with 30% outliers (ARCHITECTURE.md section 6, the wrist camera:
 //! 0.5 px keypoints, 0.1 mm depth noise at 0.5 m growing with z^2): rigid 3D-3D RANSAC with
 //! the anisotropic refinement, essential 5-point RANSAC with the Sampson refinement, and the
 //! 5-point minimal solver alone.

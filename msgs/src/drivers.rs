@@ -15,7 +15,7 @@
 //! - Errors: [`DriverError`]; a device that drops samples (live hardware cannot be
 //!   back-pressured) counts them and reports the count, it never blocks the caller.
 //!
-//! Rates (DESIGN.md section 6): wrist camera on request, about 1 s per capture; panoramic
+//! Rates (ARCHITECTURE.md section 6): wrist camera on request, about 1 s per capture; panoramic
 //! camera <= 1 Hz; joint states of arm, lift and clamp typically 100 Hz; odometry 50 Hz;
 //! environment sensors 1 Hz.
 

@@ -1,4 +1,4 @@
-//! TF frame names and joint names of DESIGN.md section 3 (URDF link names = frame names).
+//! TF frame names and joint names of ARCHITECTURE.md section 3 (URDF link names = frame names).
 
 /// Fixed world frame.
 pub const MAP: &str = "map";

@@ -1,7 +1,7 @@
 //! rodlog message vocabulary: ROS 2 message structs, CDR codec, ros2msg schema texts, topic
 //! registry, the Stage and driver traits.
 //!
-//! The bottom of the workspace: every other crate speaks these types (DESIGN.md section 3).
+//! The bottom of the workspace: every other crate speaks these types (ARCHITECTURE.md section 3).
 //!
 //! | module | what |
 //! |---|---|

@@ -48,7 +48,7 @@ pub trait MsgPayload: RosMessage + Into<Msg> {
 
 macro_rules! msg_enum {
     ($( $(#[$doc:meta])* $variant:ident($ty:ty) ),* $(,)?) => {
-        /// Any top-level message rodlog logs (DESIGN.md section 3).
+        /// Any top-level message rodlog logs (ARCHITECTURE.md section 3).
         #[derive(Debug, Clone, PartialEq)]
         pub enum Msg {
             $( $(#[$doc])* $variant($ty), )*

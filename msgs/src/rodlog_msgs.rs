@@ -1,4 +1,4 @@
-//! `rodlog_msgs`: the project's own messages (DESIGN.md section 3). Field order is the wire
+//! `rodlog_msgs`: the project's own messages (ARCHITECTURE.md section 3). Field order is the wire
 //! order; constants live in the schema text and as Rust consts, not on the wire.
 
 use serde::{Deserialize, Serialize};

@@ -8,7 +8,7 @@
 //! The texts are the ROS 2 Jazzy definitions (ros2/common_interfaces, ros2/geometry2
 //! `tf2_msgs`, ros2/rcl_interfaces `rcl_interfaces` and `builtin_interfaces`,
 //! ros2/rosgraph_msgs) with long comments trimmed; field order, types, array bounds,
-//! default values and constants are kept exactly. The `rodlog_msgs` texts are DESIGN.md
+//! default values and constants are kept exactly. The `rodlog_msgs` texts are ARCHITECTURE.md
 //! section 3.
 
 use serde::Serialize;
@@ -669,7 +669,7 @@ uint32 line
     deps: &[&TIME],
 };
 
-// ---- rodlog_msgs (DESIGN.md section 3) ------------------------------------------------------
+// ---- rodlog_msgs (ARCHITECTURE.md section 3) ------------------------------------------------------
 
 /// `rodlog_msgs/ClampCommand`.
 pub static CLAMP_COMMAND: MsgDef = MsgDef {

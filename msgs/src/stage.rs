@@ -1,4 +1,4 @@
-//! The [`Stage`] trait: a deterministic function over the message stream (DESIGN.md
+//! The [`Stage`] trait: a deterministic function over the message stream (ARCHITECTURE.md
 //! section 2).
 //!
 //! # Determinism rules (live == replay)

@@ -1,7 +1,7 @@
 //! The robot clock: [`RobotTime`] and [`RobotDuration`], integer nanoseconds.
 //!
 //! Every `log_time`, `publish_time` and `header.stamp` rodlog writes comes from this clock
-//! (DESIGN.md section 2). Time is an unsigned count of nanoseconds since the robot clock's
+//! (ARCHITECTURE.md section 2). Time is an unsigned count of nanoseconds since the robot clock's
 //! epoch (simulation: scenario start; hardware: the runtime's epoch, e.g. Unix time), so it
 //! never runs backwards and `u64` lasts 584 years. Durations are unsigned too
 //! (`RobotDuration`, `u64` ns): stage latencies, periods and timeouts are never negative;

@@ -1,4 +1,4 @@
-//! Topic names of DESIGN.md section 3 and their registry (type, latching, QoS YAML).
+//! Topic names of ARCHITECTURE.md section 3 and their registry (type, latching, QoS YAML).
 //!
 //! `offered_qos_profiles` is the channel-metadata value the MCAP ros2 profile requires, in
 //! the YAML form rosbag2 (Jazzy, metadata version 9) writes: a list with one profile per
@@ -52,7 +52,7 @@ pub const CALIBRATION_HAND_EYE: &str = "/calibration/hand_eye";
 /// Requests to the calibration stage (std_msgs/String): `check` (the next captures are drift
 /// check views), `collect` (the next captures are calibration views), `solve` (check or
 /// calibrate the batch now), `cancel`. The stage answers on [`TASK_EVENT`] (task
-/// `calibration`). A project topic beside DESIGN.md s3's: the task stages' seam to
+/// `calibration`). A project topic beside ARCHITECTURE.md section 3's: the task stages' seam to
 /// self-maintenance.
 pub const CALIBRATION_COMMAND: &str = "/calibration/command";
 /// Task and safety events.
@@ -79,7 +79,7 @@ pub const SIM_ROD_STATE: &str = "/sim/rod_state";
 pub const SIM_BASE_POSE: &str = "/sim/base_pose";
 
 /// Topics that command the robot: stage outputs delivered to the world's drivers (the
-/// simulator, or the ROS 2 graph behind `--allow-motion`), DESIGN.md section 3.
+/// simulator, or the ROS 2 graph behind `--allow-motion`), ARCHITECTURE.md section 3.
 pub const COMMANDS: [&str; 5] = [
     ARM_JOINT_TRAJECTORY,
     LIFT_COMMAND,
@@ -222,7 +222,7 @@ static REGISTRY: &[TopicSpec] = &[
     spec(SIM_BASE_POSE, geometry_msgs::PoseStamped::TYPE_NAME, false),
 ];
 
-/// Every topic of DESIGN.md section 3, each once.
+/// Every topic of ARCHITECTURE.md section 3, each once.
 pub fn registry() -> &'static [TopicSpec] {
     REGISTRY
 }

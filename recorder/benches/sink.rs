@@ -1,4 +1,4 @@
-//! Sink benchmarks (issue 3).
+//! Sink benchmarks.
 //!
 //! * `sink_vs_bare_mcap/{rodlog,bare}/1280x1024`: the same stream (1280x1024 `rgb8` +
 //!   `16UC1` depth at 10 Hz, `/joint_states` at 100 Hz, 1 s = 10 frames, 65.5 MB of

@@ -1,4 +1,4 @@
-//! The MCAP sink: writes rodlog's log (DESIGN.md section 3) with the ROS 2 profile.
+//! The MCAP sink: writes rodlog's log (ARCHITECTURE.md section 3) with the ROS 2 profile.
 //!
 //! Layout of a file written here (MCAP spec, <https://mcap.dev/spec>):
 //!
@@ -12,7 +12,7 @@
 //! * one Schema per ROS type: encoding `ros2msg`, data = the `.msg` text with its dependencies;
 //! * one Channel per (topic, producer): message encoding `cdr`, metadata
 //!   `offered_qos_profiles` (ROS 2 QoS YAML) and `producer=<stage or driver name>`
-//!   (DESIGN.md section 2: inputs and outputs are told apart per channel);
+//!   (ARCHITECTURE.md section 2: inputs and outputs are told apart per channel);
 //! * [`McapSink::flush`] ends the open chunk and flushes the OS buffers, so a crash after it loses
 //!   nothing written before it (the runner calls it every second of robot clock);
 //! * [`McapSink::finish`] writes the summary; it must be called on every exit path. A sink that
@@ -36,11 +36,11 @@ pub const SCHEMA_ENCODING: &str = "ros2msg";
 pub const MESSAGE_ENCODING: &str = "cdr";
 /// Channel-metadata key holding the offered QoS profiles (YAML), as ROS 2 rosbag2 writes it.
 pub const QOS_KEY: &str = "offered_qos_profiles";
-/// Channel-metadata key naming the stage or driver that wrote the channel (DESIGN.md s2).
+/// Channel-metadata key naming the stage or driver that wrote the channel (ARCHITECTURE.md section 2).
 pub const PRODUCER_KEY: &str = "producer";
 /// Default target size of a chunk before compression, in bytes (4 MiB: a few camera frames).
 pub const DEFAULT_CHUNK_SIZE_BYTES: u64 = 4 * 1024 * 1024;
-/// Names of the metadata records DESIGN.md section 3 defines.
+/// Names of the metadata records ARCHITECTURE.md section 3 defines.
 pub const METADATA_NAMES: [&str; 3] = ["robot_info", "scenario", "build"];
 
 /// The `library` string of the MCAP header: rodlog's and the mcap crate's versions.

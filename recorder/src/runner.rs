@@ -1,4 +1,4 @@
-//! The deterministic stage runner (DESIGN.md section 2), shared by recording and replay.
+//! The deterministic stage runner (ARCHITECTURE.md section 2), shared by recording and replay.
 //!
 //! All messages, inputs (drivers, `/clock`, or a recording's input channels) and stage
 //! outputs alike, go through one priority queue ordered by the merge key

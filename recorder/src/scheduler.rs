@@ -40,7 +40,7 @@ pub const MAX_WORLD_STEP: RobotDuration = RobotDuration::from_millis(10);
 /// Delay of the scheduler's reaction to a rejected command (keeps the feeding rule: a new
 /// input is always later than everything already popped).
 pub const REACTION_DELAY: RobotDuration = RobotDuration::from_micros(1);
-/// Topics whose stage outputs are commands delivered to the world (DESIGN.md section 3).
+/// Topics whose stage outputs are commands delivered to the world (ARCHITECTURE.md section 3).
 pub const COMMAND_TOPICS: [&str; 5] = msgs::topics::COMMANDS;
 
 /// True for command topics.

@@ -1,5 +1,5 @@
 //! Replay: feed a recording's inputs through the same stages, in the same merge order, and
-//! compare (or write) what they regenerate (DESIGN.md section 2).
+//! compare (or write) what they regenerate (ARCHITECTURE.md section 2).
 //!
 //! 1. Channels are classified: a channel is an **output** iff its `producer` metadata names a
 //!    stage of the current pipeline; every other channel (drivers, `/clock`, foreign files

@@ -1,4 +1,4 @@
-//! The AUBO i10 arm: its standard DH table (DESIGN.md s6) and joint limits.
+//! The AUBO i10 arm: its standard DH table (ARCHITECTURE.md section 6) and joint limits.
 //!
 //! | i | theta offset | d (m) | a (m) | alpha |
 //! |---|---|---|---|---|
@@ -24,7 +24,7 @@ use crate::limits::JointLimit;
 use std::f64::consts::FRAC_PI_2;
 use std::f64::consts::PI;
 
-/// The AUBO i10 DH table of DESIGN.md s6 (metres, radians).
+/// The AUBO i10 DH table of ARCHITECTURE.md section 6 (metres, radians).
 pub const AUBO_I10_DH: DhTable = DhTable {
     rows: [
         DhRow {

@@ -1,5 +1,5 @@
 //! The wrist camera's nominal mount: `tool0_from_camera`, the TF edge
-//! `tool0` -> `camera_color_optical_frame` (DESIGN.md s3).
+//! `tool0` -> `camera_color_optical_frame` (ARCHITECTURE.md section 3).
 //!
 //! The nominal mount is the design (CAD) value of the bracket that holds the camera on the
 //! flange. It belongs to the robot model: the calibration stage publishes it on `/tf` until a

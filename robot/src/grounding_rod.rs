@@ -1,5 +1,5 @@
 //! The grounding rod and its interface with the end effector: dimensions, the grasp, the
-//! hook's capture window and the clamp's lead-screw travel (DESIGN.md s6).
+//! hook's capture window and the clamp's lead-screw travel (ARCHITECTURE.md section 6).
 //!
 //! The rod is the robot's tool. Its geometry is known to the controller (it plans with it) and
 //! to the simulator (it renders the rod and decides grasp, hook and clamp with it), so it lives
@@ -105,7 +105,7 @@ pub struct HookTolerance {
 }
 
 impl HookTolerance {
-    /// DESIGN.md s6: +-15 mm across, +-10 mm along the approach, +-5 deg yaw.
+    /// ARCHITECTURE.md section 6: +-15 mm across, +-10 mm along the approach, +-5 deg yaw.
     pub const DESIGN: Self = Self {
         across_m: 0.015,
         along_approach_m: 0.010,

@@ -45,7 +45,7 @@
 //! than a turn; the code handles wider limits).
 //!
 //! Source: the structure follows Hawkins, *Analytic Inverse Kinematics for the Universal
-//! Robots UR-5/UR-10 Arms* (2013), re-derived above for the AUBO table of DESIGN.md s6 and
+//! Robots UR-5/UR-10 Arms* (2013), re-derived above for the AUBO table of ARCHITECTURE.md section 6 and
 //! verified numerically by the tests (10,000 random poses).
 
 use crate::dh::DhTable;

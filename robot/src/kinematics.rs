@@ -1,7 +1,7 @@
 //! The whole robot's forward kinematics: mobile base (planar pose in `map`), lift (prismatic
 //! along z), AUBO i10 arm (DH), and the fixed frames.
 //!
-//! Tree of frames (DESIGN.md s3; `*` = moving joint, published on `/tf`; others fixed, on
+//! Tree of frames (ARCHITECTURE.md section 3; `*` = moving joint, published on `/tf`; others fixed, on
 //! `/tf_static`):
 //!
 //! ```text
@@ -73,7 +73,7 @@ pub enum JointKind {
 }
 
 impl JointKind {
-    /// The joint for a DESIGN.md s3 joint name, `None` for names without a frame (e.g.
+    /// The joint for a ARCHITECTURE.md section 3 joint name, `None` for names without a frame (e.g.
     /// `clamp_joint`) or unknown ones.
     #[must_use]
     pub fn from_name(name: &str) -> Option<Self> {
@@ -111,7 +111,7 @@ impl Default for RobotModel {
 }
 
 impl RobotModel {
-    /// The nominal model: DESIGN.md s6 DH table and limits, mount numbers of the module docs.
+    /// The nominal model: ARCHITECTURE.md section 6 DH table and limits, mount numbers of the module docs.
     #[must_use]
     pub fn nominal() -> Self {
         Self {
@@ -252,7 +252,7 @@ impl RobotModel {
     }
 
     /// The fixed edges (for `/tf_static`): arm mount, flange, panoramic camera. Never the
-    /// camera edge `tool0 -> camera_color_optical_frame` (DESIGN.md s3).
+    /// camera edge `tool0 -> camera_color_optical_frame` (ARCHITECTURE.md section 3).
     #[must_use]
     pub fn fixed_edges(&self) -> Vec<FrameEdge> {
         vec![

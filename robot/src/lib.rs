@@ -1,6 +1,6 @@
 //! AUBO i10 + lift + mobile base model: kinematics, inverse kinematics, URDF, TF buffer, the `robot_state` stage.
 //!
-//! Everything that knows the robot's geometry lives here (DESIGN.md s1), shared by the
+//! Everything that knows the robot's geometry lives here (ARCHITECTURE.md section 1), shared by the
 //! simulator, calibration and control. Pure maths in [`dh`], [`ik`], [`kinematics`], [`se3`],
 //! [`tf_buffer`]; the message-facing parts are [`conversions`], [`urdf`] (text) and the
 //! [`robot_state`] stage.
@@ -8,10 +8,10 @@
 //! | module | holds |
 //! |---|---|
 //! | [`dh`] | standard DH rows, chain FK, link frames |
-//! | [`aubo_i10`] | the AUBO i10 table and limits (DESIGN.md s6) |
+//! | [`aubo_i10`] | the AUBO i10 table and limits (ARCHITECTURE.md section 6) |
 //! | [`ik`] | closed-form IK, all 8 solutions, limits, nearest choice, singularities |
 //! | [`kinematics`] | base (planar) + lift (prismatic) + arm: every frame, mount numbers |
-//! | [`names`] | frame and joint names (DESIGN.md s3) |
+//! | [`names`] | frame and joint names (ARCHITECTURE.md section 3) |
 //! | [`camera_mount`] | the wrist camera's nominal mount `tool0_from_camera` |
 //! | [`grounding_rod`] | the rod (the robot's tool): dimensions, grasp, hook window, clamp travel |
 //! | [`urdf`] | the generated URDF |
@@ -41,9 +41,9 @@
 //! - Quaternions are `UnitQuaternion` (Hamilton, `w + xi + yj + zk`); on the wire they are
 //!   written `(x, y, z, w)` as in ROS.
 //! - Frames follow REP-103 (x forward, y left, z up) except the optical frames, which use the
-//!   OpenCV axes (x right, y down, z forward). Frame and joint names are those of DESIGN.md s3
+//!   OpenCV axes (x right, y down, z forward). Frame and joint names are those of ARCHITECTURE.md section 3
 //!   ([`names`]).
-//! - The arm's kinematics is the standard DH table of DESIGN.md s6 ([`aubo_i10`], [`dh`]);
+//! - The arm's kinematics is the standard DH table of ARCHITECTURE.md section 6 ([`aubo_i10`], [`dh`]);
 //!   `arm_base_link` is DH frame 0 and `tool0` is DH frame 6 (the flange).
 
 pub mod aubo_i10;

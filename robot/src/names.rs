@@ -1,4 +1,4 @@
-//! Frame and joint names of DESIGN.md s3 (TF frame names = URDF link names).
+//! Frame and joint names of ARCHITECTURE.md section 3 (TF frame names = URDF link names).
 //!
 //! The shared names are `msgs::frames`' constants, re-exported; this module adds the names only
 //! the robot model needs (its fixed URDF joints, the arm links in chain order).

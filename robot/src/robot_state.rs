@@ -1,5 +1,5 @@
 //! The `robot_state` stage: `/joint_states` -> `/tf` with the nominal model, plus the fixed
-//! joints on `/tf_static` and the URDF on `/robot_description` (DESIGN.md s3).
+//! joints on `/tf_static` and the URDF on `/robot_description` (ARCHITECTURE.md section 3).
 //!
 //! Behaviour (deterministic: the outputs depend only on the inputs and the model):
 //! - On the first input it publishes, once, `/robot_description` (the URDF of [`crate::urdf`])

@@ -18,7 +18,7 @@ use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
 
 /// Pose of a body moving in the plane (x, y, yaw), as a 3D isometry: `Tz(0) Txy(x, y) Rz(yaw)`.
 ///
-/// Used for `map_from_base_link` (the mobile base's odometry pose, DESIGN.md s3).
+/// Used for `map_from_base_link` (the mobile base's odometry pose, ARCHITECTURE.md section 3).
 #[must_use]
 pub fn planar_pose(x_m: f64, y_m: f64, yaw_rad: f64) -> Isometry3<f64> {
     Isometry3::from_parts(

@@ -3,7 +3,7 @@
 //!
 //! Published on `/robot_description` (std_msgs/String) and attached to recordings; Rerun and
 //! Foxglove draw it, placing each link at the TF frame of the same name (link names = TF frame
-//! names of DESIGN.md s3, joint names = its joint list).
+//! names of ARCHITECTURE.md section 3, joint names = its joint list).
 //!
 //! Contents: links `base_link`, `lift_link`, `arm_base_link`, the six arm links, `tool0` and
 //! `panoramic_optical_frame`; joints `lift_joint` (prismatic), the six revolute arm joints, and
@@ -13,7 +13,7 @@
 //!
 //! Deliberately absent: `map` (the base's odometry is a `/tf` edge, not a joint);
 //! `camera_color_optical_frame` (its edge from `tool0` is the hand-eye calibration, published
-//! on `/tf` by the calibration stage, DESIGN.md s3; a fixed URDF joint would hide a
+//! on `/tf` by the calibration stage, ARCHITECTURE.md section 3; a fixed URDF joint would hide a
 //! recalibration); `rod_link` (the rod is a free body). Geometry is primitive (boxes and
 //! cylinders), for display, not for collision checking:
 //!

@@ -1,6 +1,6 @@
 //! rodlog's ROS 2 transport: raw CDR topics over DDS (RustDDS), so rodlog joins a ROS 2 graph.
 //!
-//! A transport at the edge (STYLE.md 15): it converts names and QoS, moves the CDR bytes that
+//! A transport at the edge: it converts names and QoS, moves the CDR bytes that
 //! `msgs` encodes and decodes, stamps what arrives and counts what was lost. No stage logic;
 //! stages never see DDS types. Why RustDDS, and the measured figures: `MEASUREMENT.md`.
 //!

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Times OpenCV 4.x (one thread) on the frames the rodlog feature benches use, for the
-ratios of issue 6: ORB (2000 features), BFMatcher(NORM_HAMMING) 2000 x 2000, and
+ratios: ORB (2000 features), BFMatcher(NORM_HAMMING) 2000 x 2000, and
 cv2.xfeatures2d.matchGMS.
 
 Usage: bench_opencv.py [A.png B.png] [--runs N]

@@ -3,7 +3,7 @@
 
 Usage: opencv_handeye.py HAND.txt EYE.txt [HAND2.txt EYE2.txt ...]
 
-Each HAND/EYE pair is a pair of TUM pose files (DESIGN.md s5: `timestamp tx ty tz qx qy qz
+Each HAND/EYE pair is a pair of TUM pose files (ARCHITECTURE.md section 5: `timestamp tx ty tz qx qy qz
 qw`, `#` comments): hand = base_from_tool0 (OpenCV's gripper2base), eye = world_from_camera
 (whose inverse is OpenCV's target2cam). Lines pair by equal timestamp, in the hand file's
 order. For each pair of files, prints OpenCV's `calibrateHandEye` result for its five

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Interop checks of rodlog's MCAP with the Python ROS 2 / MCAP tools and Rerun
-# (DESIGN.md s3): mcap-ros2-support + rosbags decode a rodlog recording of every topic field
+# (ARCHITECTURE.md section 3): mcap-ros2-support + rosbags decode a rodlog recording of every topic field
 # by field; rodlog reads a file written by Python's mcap_ros2.writer; `rerun mcap convert`
 # recognises images, depth, camera info and TF. Fails (never skips) without the venv.
 # Usage: scripts/interop/run.sh        (venv: $RODLOG_REF_VENV or <repo>/.venv-ref)

@@ -1,7 +1,7 @@
 //! The camera-mount bump: at one instant the true `tool0_from_camera` jumps by a rotation of
 //! `rot_deg` about a seeded axis and a translation of `trans_mm` along a seeded direction
 //! (both axes uniform on the sphere, in `tool0` coordinates). Unset sizes are drawn from the
-//! DESIGN.md s6 distribution, uniform in 1-3 deg and 3-10 mm; an unset time uniformly in
+//! ARCHITECTURE.md section 6 distribution, uniform in 1-3 deg and 3-10 mm; an unset time uniformly in
 //! `[0.2, 0.8]` of the scenario duration.
 //!
 //! `tool0_from_camera_after = (t_before + dt, R_delta R_before)`: the camera origin moves by

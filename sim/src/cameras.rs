@@ -1,7 +1,7 @@
 //! The wrist RGB-D camera ([`CameraDriver`], producer `camera_driver`) and the panoramic
 //! camera (producer `panoramic_driver`), rendered by [`crate::render`].
 //!
-//! # Wrist camera (Mech-Eye NANO class, DESIGN.md s6)
+//! # Wrist camera (Mech-Eye NANO class, ARCHITECTURE.md section 6)
 //! * A request (`/camera/trigger`) at `t` exposes at `t + exposure_delay_s` (default 10 ms:
 //!   trigger latency) and the images become available at `t + capture_s` (default 1 s:
 //!   structured-light pattern sequence plus processing). A request while a capture is in

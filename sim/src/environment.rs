@@ -6,7 +6,7 @@
 //! process around the scenario mean, stepped every [`WIND_STEP_S`]:
 //! `u_{k+1} = m + (u_k - m) a + g sqrt(1 - a^2) n_k`, `a = exp(-dt / tau)`, `tau` =
 //! [`WIND_TAU_S`], `g` = gust 1-sigma, `n_k` seeded normals; `u >= 0`. "Wind" everywhere
-//! means the **3-s mean** of `u` (DESIGN.md s6); gusts above it are normal.
+//! means the **3-s mean** of `u` (ARCHITECTURE.md section 6); gusts above it are normal.
 //!
 //! # Sway
 //! Each conductor swings rigidly about its chord (a pendulum of effective length 0.8 sag):

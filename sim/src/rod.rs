@@ -1,5 +1,5 @@
 //! The grounding rod: grasp, hook, clamp, unhook and return decided by the physical
-//! tolerances of DESIGN.md s6 (shared with the controller through these pure functions).
+//! tolerances of ARCHITECTURE.md section 6 (shared with the controller through these pure functions).
 //!
 //! # Frames
 //! The rod's frames, grasp and tolerances are the robot crate's ([`robot::grounding_rod`],

@@ -1,5 +1,5 @@
 //! Ground truth on `/sim/...` topics (producer `sim`): for scoring only, never an input to
-//! calibration, perception or control (DESIGN.md s2).
+//! calibration, perception or control (ARCHITECTURE.md section 2).
 //!
 //! | topic | type | rate | content |
 //! |---|---|---|---|

@@ -3,7 +3,7 @@
 //! renderer's lane textures (`sim`). The `unsafe` of both crates' dispatch is here (calib
 //! keeps its AVX-512 VBMI byte shuffles of the pyramid resize, gated by [`vbmi_allowed`]).
 //!
-//! The workspace builds for `x86-64-v2` (SSE4.2 + popcnt, DESIGN.md section 8) so the binary
+//! The workspace builds for `x86-64-v2` (SSE4.2 + popcnt, ARCHITECTURE.md section 8) so the binary
 //! runs on any recent x86-64. The kernels are plain safe Rust written as whole-row,
 //! branch-free lane loops; [`dispatch`] runs such a kernel inside a function compiled with
 //! wider vector units enabled (AVX2, or AVX-512 with `vpopcntq` when the CPU has them, as

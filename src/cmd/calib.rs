@@ -1,4 +1,4 @@
-//! `rodlog calib ...`: calibration tools (DESIGN.md section 4).
+//! `rodlog calib ...`: calibration tools (ARCHITECTURE.md section 4).
 //!
 //! `calib match` runs the calibration front end on two images: the tool a user reaches for
 //! when a calibration looks wrong.
@@ -13,7 +13,7 @@ use anyhow::{Context, Result, bail};
 use calib::handeye::{HandEyeOptions, HandEyeSolution, Method, calibration_json, solve_tum};
 use clap::{Args, Subcommand};
 
-/// The camera frame a hand-eye result names as its child (DESIGN.md section 3).
+/// The camera frame a hand-eye result names as its child (ARCHITECTURE.md section 3).
 const CAMERA_FRAME: &str = msgs::frames::CAMERA_COLOR_OPTICAL_FRAME;
 
 /// `rodlog calib` subcommands.
@@ -43,7 +43,7 @@ pub struct SelfArgs {
     /// or zhi (the SIFT + SfM + SVD baseline, colour only).
     #[arg(long, default_value = "ours")]
     pub method: String,
-    /// Print one JSON object (DESIGN.md section 4, plus per-pair reports) on stdout.
+    /// Print one JSON object (ARCHITECTURE.md section 4, plus per-pair reports) on stdout.
     #[arg(long)]
     pub json: bool,
     /// Also write the result as YAML (parent tool0, child camera, direction named).
@@ -103,7 +103,7 @@ pub struct BoardArgs {
     /// Hand-eye solver (as for `calib handeye`).
     #[arg(long, default_value = "ours")]
     pub method: String,
-    /// Print one JSON object (DESIGN.md section 4) on stdout.
+    /// Print one JSON object (ARCHITECTURE.md section 4) on stdout.
     #[arg(long)]
     pub json: bool,
 }
@@ -150,7 +150,7 @@ pub struct MatchArgs {
     /// corners, denser, so GMS finds more support but coverage is patchier).
     #[arg(long, value_enum, default_value_t = Distribution::Quadtree)]
     pub distribution: Distribution,
-    /// Print the match JSON (DESIGN.md section 4) on stdout.
+    /// Print the match JSON (ARCHITECTURE.md section 4) on stdout.
     #[arg(long)]
     pub json: bool,
     /// Write a side-by-side picture of the matches (kept green, rejected red).
@@ -173,7 +173,7 @@ pub struct HandeyeArgs {
     /// The eye translations are metric only up to one unknown scale: estimate it.
     #[arg(long)]
     pub scale_free: bool,
-    /// Print one JSON object (DESIGN.md section 4) on stdout.
+    /// Print one JSON object (ARCHITECTURE.md section 4) on stdout.
     #[arg(long)]
     pub json: bool,
 }

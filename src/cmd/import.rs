@@ -1,5 +1,5 @@
 //! `rodlog import folder|shecar DIR -o REC.mcap`: datasets on disk -> a recording
-//! (DESIGN.md section 5; see `crate::import`).
+//! (ARCHITECTURE.md section 5; see `crate::import`).
 
 use std::path::PathBuf;
 

@@ -2,7 +2,7 @@
 //!
 //! Channel frequency = messages / (end - start) of the whole recording (as `mcap info`
 //! computes it), so a topic published only in part of the run shows its mean rate over the
-//! run. Times are robot-clock nanoseconds (DESIGN.md s2), printed as seconds.
+//! run. Times are robot-clock nanoseconds (ARCHITECTURE.md section 2), printed as seconds.
 //!
 //! A live recording (`record --ros2`) also shows its per-topic input counters (the
 //! `live_inputs` metadata record: received, lost on the way, dropped when the runtime fell

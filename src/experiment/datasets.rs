@@ -1,4 +1,4 @@
-//! `rodlog experiment datasets` (issue 9, DESIGN.md section 7, the paper's Tables 2-3): ours
+//! `rodlog experiment datasets` (ARCHITECTURE.md section 7, the paper's Tables 2-3): ours
 //! vs ZHI on two datasets.
 //!
 //! - **Dataset 1, simulator**: the trials of [`super::noise`] (18 seeded views each) with no

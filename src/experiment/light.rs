@@ -1,9 +1,9 @@
-//! `rodlog experiment light` (issue 12, DESIGN.md s7): hang success and time by hour of day,
+//! `rodlog experiment light` (ARCHITECTURE.md section 7): hang success and time by hour of day,
 //! wind at most 2 m/s (the paper: failures only 18:00-19:00, every operation under 5 min).
 //!
 //! Each hour from 6:00 to 20:00 gets `--trials` seeded hangs with the self-maintenance on
 //! and no bump (the light alone decides): the drift check and the panoramic finder work on
-//! colour images, whose SNR falls at dusk (DESIGN.md s6); the structured-light depth does not
+//! colour images, whose SNR falls at dusk (ARCHITECTURE.md section 6); the structured-light depth does not
 //! care. The robot must refuse what it cannot see, never fail: the table separates refusals
 //! (by reason) from failures.
 

@@ -1,4 +1,4 @@
-//! `rodlog experiment maintenance` (issue 12, DESIGN.md s7; not in the paper): how well the
+//! `rodlog experiment maintenance` (ARCHITECTURE.md section 7; not in the paper): how well the
 //! robot notices that its camera mount has moved, per bump size, and how often it raises a
 //! false alarm.
 //!
@@ -7,7 +7,7 @@
 //! bump at 0.5 s of a set size, direction drawn from the seed: rotation-only bins, translation
 //! -only bins and combined bins spanning 0.25-3 deg and 1-10 mm, and unbumped runs for the
 //! false alarms. Detected = the verdict `drifted`; "cannot tell" is counted on its own (a
-//! refusal to judge, not a detection). Goal (issue 12): >= 95 % detected in every bin at
+//! refusal to judge, not a detection). Goal: >= 95 % detected in every bin at
 //! >= 0.5 deg or >= 3 mm, <= 5 % false alarms, >= 50 runs each.
 
 use anyhow::Result;

@@ -1,4 +1,4 @@
-//! `rodlog experiment NAME`: the paper's evaluations and ours (DESIGN.md section 7), each
+//! `rodlog experiment NAME`: the paper's evaluations and ours (ARCHITECTURE.md section 7), each
 //! writing `DIR/report.md`, `DIR/results.json` and plots (PNG + SVG) under `DIR/plots/`.
 //!
 //! Table of contents:
@@ -12,9 +12,9 @@
 //! - [`progress`]: [`progress::Progress`], an indicatif bar on stderr, hidden off a terminal.
 //! - Plots: `viz::plots` (box plots per condition and method, line plots, bar charts).
 //! - Experiments: [`matchers`] (feature matchers on pairs with known geometry), [`noise`],
-//!   [`motions`], [`datasets`] (hand-eye calibration, ours vs ZHI; issue 9), [`tasks`],
+//!   [`motions`], [`datasets`] (hand-eye calibration, ours vs ZHI), [`tasks`],
 //!   [`light`], [`wind`], [`maintenance`] (the task experiments: simulated runs through the
-//!   recording pipeline, [`task_runs`], judged with the simulator's truth; issue 12).
+//!   recording pipeline, [`task_runs`], judged with the simulator's truth).
 //!
 //! # Writing an experiment
 //! A module with `pub fn run(settings: &Settings) -> anyhow::Result<()>` that

@@ -1,4 +1,4 @@
-//! `rodlog experiment motions` (issue 9, DESIGN.md section 7, the paper's Fig. 14): hand-eye
+//! `rodlog experiment motions` (ARCHITECTURE.md section 7, the paper's Fig. 14): hand-eye
 //! error against the number of motions (views), 12..18, ours vs ZHI.
 //!
 //! Protocol: the trials of [`super::noise`] ([`super::noise::render_trial`]: 18 seeded views

@@ -1,4 +1,4 @@
-//! `rodlog experiment noise` (issue 9, DESIGN.md section 7, the paper's Fig. 13): hand-eye
+//! `rodlog experiment noise` (ARCHITECTURE.md section 7, the paper's Fig. 13): hand-eye
 //! error against image noise, ours (RGB-D and monocular) vs the ZHI baseline.
 //!
 //! # Protocol

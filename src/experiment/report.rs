@@ -1,4 +1,4 @@
-//! `report.md` and `results.json` of an experiment (DESIGN.md section 7).
+//! `report.md` and `results.json` of an experiment (ARCHITECTURE.md section 7).
 //!
 //! - [`Table`]: a markdown table builder (header, rows of cells, per-column alignment).
 //! - [`Report`]: the markdown document: title, paragraphs, tables, images, written last.

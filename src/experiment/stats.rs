@@ -1,4 +1,4 @@
-//! Summary statistics and refusal counting for experiment reports (DESIGN.md section 7).
+//! Summary statistics and refusal counting for experiment reports (ARCHITECTURE.md section 7).
 //!
 //! Quantiles use linear interpolation between order statistics, position `p (n - 1)` in the
 //! ascending sample (Hyndman & Fan 1996, definition 7; numpy's default `percentile`, so a

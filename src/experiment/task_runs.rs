@@ -26,7 +26,7 @@ pub struct RunSpec {
     /// Mean of the 3-s mean wind (m/s).
     pub wind_mps: f64,
     /// Camera-mount bump at 0.5 s: `(rotation deg, translation mm)`; `None`: no bump. A
-    /// value of NaN is drawn from the seed (DESIGN.md s6: 1-3 deg, 3-10 mm).
+    /// value of NaN is drawn from the seed (ARCHITECTURE.md section 6: 1-3 deg, 3-10 mm).
     pub bump: Option<(f64, f64)>,
     /// The task checks (and repairs) its calibration before operating.
     pub self_maintenance: bool,

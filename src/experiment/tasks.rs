@@ -1,9 +1,9 @@
-//! `rodlog experiment tasks` (issue 12, DESIGN.md s7; the paper's task experiment): hangs and
+//! `rodlog experiment tasks` (ARCHITECTURE.md section 7; the paper's task experiment): hangs and
 //! removes after a camera-mount bump, with and without self-calibration.
 //!
 //! Every trial `t` is one world seed, run four times: hang and remove, each with the
 //! self-maintenance on (drift check, recalibration on drift) and off (the calibration from
-//! before the bump). The bump happens at 0.5 s, its size drawn from the seed as DESIGN.md s6
+//! before the bump). The bump happens at 0.5 s, its size drawn from the seed as ARCHITECTURE.md section 6
 //! says (1-3 deg, 3-10 mm); the hour (8:00-16:00) and the mean wind (0-1.5 m/s, gusts
 //! above it are normal) are drawn from the seed too. Runs are judged by [`crate::judge`]
 //! against the simulator's truth: success = the task reported DONE and the rod is where it

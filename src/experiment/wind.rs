@@ -1,4 +1,4 @@
-//! `rodlog experiment wind` (issue 12, DESIGN.md s7): hang success vs the mean wind speed
+//! `rodlog experiment wind` (ARCHITECTURE.md section 7): hang success vs the mean wind speed
 //! ("wind" = the 3-s mean; operations are allowed at <= 2 m/s, gusts above it are normal).
 //!
 //! Each mean speed gets `--trials` seeded hangs at midday with the self-maintenance on and

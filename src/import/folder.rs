@@ -1,4 +1,4 @@
-//! The folder dataset of DESIGN.md section 5:
+//! The folder dataset of ARCHITECTURE.md section 5:
 //!
 //! ```text
 //! DIR/camera.yaml         fx, fy, cx, cy, k1, k2, p1, p2, k3, width, height (flat `key: value`)

@@ -1,4 +1,4 @@
-//! Importers: datasets on disk -> a rodlog recording (DESIGN.md section 5).
+//! Importers: datasets on disk -> a rodlog recording (ARCHITECTURE.md section 5).
 //!
 //! An imported dataset becomes the same topics a robot would have logged: per view `i`
 //! (log_time = stamp = `i + 1` seconds, so the first view is not at the epoch) the hand pose

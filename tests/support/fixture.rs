@@ -1,6 +1,6 @@
 //! Interop fixtures: recordings written by rodlog for other decoders and viewers to read.
 //!
-//! * [`all_topics`]: one message on every topic of the registry (DESIGN.md section 3) with
+//! * [`all_topics`]: one message on every topic of the registry (ARCHITECTURE.md section 3) with
 //!   realistic values: small but non-trivial images, non-empty arrays, odd-length strings,
 //!   float32 values that are dyadic (exact in JSON, so a decoder's value can be compared
 //!   with `==`).
@@ -320,7 +320,7 @@ fn sample(topic: &str, type_name: &str, t: u64) -> anyhow::Result<Msg> {
     })
 }
 
-/// Producer written for `topic`, after DESIGN.md section 3's table.
+/// Producer written for `topic`, after ARCHITECTURE.md section 3's table.
 fn producer(topic: &str) -> &'static str {
     match topic {
         t if t.starts_with("/sim/") => "sim",

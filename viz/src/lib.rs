@@ -2,7 +2,7 @@
 //!
 //! | module | what |
 //! |---|---|
-//! | [`sink`] | [`Viz`]: every topic of DESIGN.md section 3 to a Rerun recording stream |
+//! | [`sink`] | [`Viz`]: every topic of ARCHITECTURE.md section 3 to a Rerun recording stream |
 //! | [`convert`] | pure conversions: pixels, point clouds, pinholes, poses, the match canvas |
 //! | [`encode`] | JPEG colour, 16-bit PNG depth, depth captures as points |
 //! | [`urdf`] | the visual shapes of a URDF, drawn per link in the link's TF frame |

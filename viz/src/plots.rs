@@ -1,4 +1,4 @@
-//! Static plots for experiment reports (DESIGN.md section 7): box plots per condition and
+//! Static plots for experiment reports (ARCHITECTURE.md section 7): box plots per condition and
 //! method side by side, line plots of a statistic against a parameter, grouped bar charts.
 //!
 //! Every plot is written twice, `STEM.png` and `STEM.svg`, from the same drawing code

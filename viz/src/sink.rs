@@ -1,5 +1,5 @@
 //! [`Viz`]: the Rerun sink. Fed the message stream (live from the recorder, or a recording
-//! read back), it logs every topic of DESIGN.md section 3 to a Rerun recording stream.
+//! read back), it logs every topic of ARCHITECTURE.md section 3 to a Rerun recording stream.
 //!
 //! # Entities
 //! | entity | from | archetypes |
@@ -25,7 +25,7 @@
 //! | `recording/whatif`, `log/whatif` | a what-if file's `whatif` record (`rodlog replay --out`) | `TextDocument` (static banner), `TextLog` WARN at the open-loop time |
 //!
 //! # Time
-//! Every message is logged at its MCAP `log_time` (robot clock, DESIGN.md section 2) on the
+//! Every message is logged at its MCAP `log_time` (robot clock, ARCHITECTURE.md section 2) on the
 //! timeline [`TIMELINE_LOG_TIME`] (`robot_time`, a duration since the robot clock's epoch;
 //! not named `log_time`, which Rerun reserves for its wall-clock timestamp timeline), and at
 //! the number of wrist captures so far on [`TIMELINE_FRAME`]. The SDK's own wall-clock

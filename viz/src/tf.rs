@@ -4,7 +4,7 @@
 //! Rerun composes the frames it displays on its own (each `/tf` edge is logged as a
 //! `Transform3D` with parent and child frame names); this tree exists only because a
 //! trajectory is a line through *past* poses, which Rerun does not accumulate. viz may not
-//! depend on the robot crate's TF buffer (DESIGN.md section 1), and needs no interpolation
+//! depend on the robot crate's TF buffer (ARCHITECTURE.md section 1), and needs no interpolation
 //! here: the executed path samples the chain at each `/tf` message.
 
 use std::collections::BTreeMap;

@@ -1,5 +1,5 @@
 //! Everything `rodlog calib match A B [--method ..] [--features N] [--distribution ..] [--json] [-o pic.png]`
-//! does (DESIGN.md section 4), so the CLI only parses flags and prints: load two image
+//! does (ARCHITECTURE.md section 4), so the CLI only parses flags and prints: load two image
 //! files (any format the `image` crate decodes here: PNG, JPEG; colour is converted to gray
 //! with OpenCV's BT.601 weights), run [`match_images`], write the match picture, and render
 //! the match JSON. This is the thin I/O shell around the pure front end.
@@ -131,7 +131,7 @@ struct MatchJson<'a> {
     time_ms: TimeJson,
 }
 
-/// The match JSON of DESIGN.md section 4, one line:
+/// The match JSON of ARCHITECTURE.md section 4, one line:
 /// `{"method":..,"keypoints_a":n,"keypoints_b":n,"matches":[[xa,ya,xb,yb],..],
 /// "time_ms":{"detect":..,"match":..,"filter":..}}` with the accepted matches in full-size
 /// pixels; floats are printed shortest round-trip exact (f32 coordinates, f64 times).

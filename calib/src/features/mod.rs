@@ -1,4 +1,4 @@
-//! The pose-acquisition front end of the paper (DESIGN.md section 6): ORB features kept
+//! The pose-acquisition front end of the paper (ARCHITECTURE.md section 6): ORB features kept
 //! evenly by the ORB-SLAM quadtree, brute-force Hamming matching, and grid-based motion
 //! statistics (GMS) that reject wrong matches without RANSAC.
 //!

@@ -118,7 +118,7 @@ fn select(
     }
 }
 
-/// ORB parameters. `Default` is the paper's front end (DESIGN.md section 6).
+/// ORB parameters. `Default` is the paper's front end (ARCHITECTURE.md section 6).
 #[derive(Clone, Debug, PartialEq)]
 pub struct OrbParams {
     /// Number of features to keep over all levels (default 2000).

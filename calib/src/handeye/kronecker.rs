@@ -1,5 +1,5 @@
 //! The paper's linear solution: Kronecker form of `A X_p = X_p B`, solved by SVD
-//! (DESIGN.md s6).
+//! (ARCHITECTURE.md section 6).
 //!
 //! The paper writes the unknown as **`X_p = camera_from_tool0 = X^-1`**, with `A` the camera
 //! motion and `B` the hand motion of a pair (`A X_p = X_p B` is `B X = X A` multiplied by

@@ -28,7 +28,7 @@
 //! | [`Method`] | source | what it solves |
 //! |---|---|---|
 //! | `ours` | Kronecker init, then Levenberg-Marquardt ([`refine`]) | robust (Huber) pose residuals over all pairs, lever-decorrelated |
-//! | `kronecker` | the paper's eq. (DESIGN.md s6), [`kronecker`] | `[I9 - R_A (x) R_B, 0; [t_A]x (x) t_B^T, [t_A]x (I - R_A)] [vec R_Xp; t_Xp] = 0` |
+//! | `kronecker` | the paper's eq. (ARCHITECTURE.md section 6), [`kronecker`] | `[I9 - R_A (x) R_B, 0; [t_A]x (x) t_B^T, [t_A]x (I - R_A)] [vec R_Xp; t_Xp] = 0` |
 //! | `tsai` | Tsai & Lenz 1989, eq. 12-15, [`tsai`] | modified Rodrigues vectors, then translation |
 //! | `park` | Park & Martin 1994, eq. 13-15, [`park`] | `R_X = (M^T M)^-1/2 M^T`, `M = sum beta alpha^T` |
 //! | `horaud` | Horaud & Dornaika 1995, sec. 3.1, [`horaud`] | quaternion eigenvector |
@@ -75,7 +75,7 @@ pub const MIN_POSES: usize = 3;
 /// Minimum number of relative motions for [`solve_motions`].
 pub const MIN_MOTIONS: usize = 2;
 
-/// A hand-eye solver, named as on the CLI (`rodlog calib handeye --method M`, DESIGN.md s4).
+/// A hand-eye solver, named as on the CLI (`rodlog calib handeye --method M`, ARCHITECTURE.md section 4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Method {
@@ -651,7 +651,7 @@ fn solve_impl(
     })
 }
 
-/// Hand-eye calibration from two TUM pose files' texts (DESIGN.md s5): hand =
+/// Hand-eye calibration from two TUM pose files' texts (ARCHITECTURE.md section 5): hand =
 /// `base_from_tool0`, eye = `world_from_camera`, paired by equal timestamp. This is all the
 /// work of `rodlog calib handeye` except reading the files and printing.
 ///
@@ -670,7 +670,7 @@ pub fn solve_tum(
     solve(&hand, &eye, opts)
 }
 
-/// The calibration JSON object of DESIGN.md s4:
+/// The calibration JSON object of ARCHITECTURE.md section 4:
 /// `{"method","mode","frame":"tool0","child_frame","translation_m","quaternion_xyzw",
 /// "matrix" (4x4 row-major),"views","pairs","residual_rot_deg","residual_trans_mm",
 /// "sigma_rot_deg","sigma_trans_mm","condition","scale"}`; the transform is
@@ -710,7 +710,7 @@ pub fn calibration_json(
 }
 
 /// Rotation-angle (degrees) and translation (metres) errors of an estimate against a
-/// reference, as DESIGN.md s6 defines them: `theta` of `R_ref^T R_est`, `||t_est - t_ref||`.
+/// reference, as ARCHITECTURE.md section 6 defines them: `theta` of `R_ref^T R_est`, `||t_est - t_ref||`.
 pub fn pose_error(estimate: &Isometry3<f64>, reference: &Isometry3<f64>) -> (f64, f64) {
     let r_err = geometry::rot(reference).transpose() * geometry::rot(estimate);
     let angle = geometry::rotation_angle(&r_err).to_degrees();

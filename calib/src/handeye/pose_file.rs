@@ -1,4 +1,4 @@
-//! TUM pose files (DESIGN.md s5): one pose per line, `timestamp tx ty tz qx qy qz qw`, the
+//! TUM pose files (ARCHITECTURE.md section 5): one pose per line, `timestamp tx ty tz qx qy qz qw`, the
 //! pose of the moving frame in the fixed frame (hand: `base_from_tool0`, eye:
 //! `world_from_camera`). `#` starts a comment; blank lines are skipped. Parsing works on
 //! text (no I/O); [`write_tum`] prints floats in their shortest round-trip form.

@@ -1,4 +1,4 @@
-//! Drift check of the hand-eye calibration for self-maintenance (issue 12, DESIGN.md s6:
+//! Drift check of the hand-eye calibration for self-maintenance (ARCHITECTURE.md section 6:
 //! "before operating, the robot checks its hand-eye calibration from what it sees"): a few
 //! views of textured structure, their hand poses and the `X = tool0_from_camera` in use
 //! decide [`DriftVerdict::Consistent`], [`DriftVerdict::Drifted`] (with the estimated
@@ -10,7 +10,7 @@
 //! The views go through the self-calibration front end ([`pair_motions`]: ORB + quadtree,
 //! brute-force Hamming, GMS, then 3D-3D RANSAC in RGB-D or the essential matrix in mono), so
 //! every pair `i < j` with enough hand rotation gives a camera motion `A_ij` next to the
-//! hand motion `B_ij = B_i^-1 B_j` (DESIGN.md s6: `A_ij = cam_i_from_cam_j`,
+//! hand motion `B_ij = B_i^-1 B_j` (ARCHITECTURE.md section 6: `A_ij = cam_i_from_cam_j`,
 //! `B_ij = tool_i_from_tool_j`, `B_ij X = X A_ij`). The residuals of a pair under `X` are
 //! those of [`crate::handeye::refine`]:
 //!
@@ -168,7 +168,7 @@ pub struct CheckPose {
 /// [`CannotTell::Unobservable`] rather than Consistent.) The robot reaches these by inverse
 /// kinematics from the structure's pose ([`check_camera_poses`], then `X^-1` for the
 /// flange), e.g. the calibration cabinet's face; whether all four are reachable from the
-/// operating spot is the planner's to check (issue 12).
+/// operating spot is the planner's to check.
 pub const CHECK_MOTION: [CheckPose; 4] = [
     CheckPose {
         tilt_deg: 0.0,

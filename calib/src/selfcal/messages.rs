@@ -1,4 +1,4 @@
-//! Calibration views from a recording's decoded messages (DESIGN.md s3 topics): colour images
+//! Calibration views from a recording's decoded messages (ARCHITECTURE.md section 3 topics): colour images
 //! on [`topics::CAMERA_COLOR_IMAGE`], registered depth on [`topics::CAMERA_DEPTH_IMAGE`],
 //! intrinsics on [`topics::CAMERA_COLOR_INFO`] (plumb_bob) and the hand poses on
 //! [`topics::TF`] / [`topics::TF_STATIC`] (`base_link` -> `tool0`). Nothing else is read

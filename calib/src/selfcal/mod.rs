@@ -1,10 +1,10 @@
-//! Hand-eye **self**-calibration from natural scene features (issue 8; the paper's pipeline,
-//! DESIGN.md section 6): no board, only the wrist camera's views and the hand poses.
+//! Hand-eye **self**-calibration from natural scene features (the paper's pipeline,
+//! ARCHITECTURE.md section 6): no board, only the wrist camera's views and the hand poses.
 //!
 //! # Conventions
 //!
 //! `X = tool0_from_camera` (maps camera coordinates to flange coordinates). For views `i`, `j`
-//! (DESIGN.md s6):
+//! (ARCHITECTURE.md section 6):
 //!
 //! ```text
 //! B_j  = base_from_tool0 at view j                    (kinematics, from /tf)
@@ -88,7 +88,7 @@
 //!
 //! # Drift check ([`drift`])
 //!
-//! Before operating (issue 12's self-maintenance), [`check_drift`] runs steps 1-3 on a few
+//! Before operating (self-maintenance), [`check_drift`] runs steps 1-3 on a few
 //! views of the check motion ([`CHECK_MOTION`]) and tests the `X` in use against their
 //! AX=XB residuals: Consistent, Drifted (with the estimated change of the mount) or
 //! CannotTell (with the reason), thresholds from the measurement noise.
@@ -148,7 +148,7 @@ pub enum Mode {
 }
 
 impl Mode {
-    /// The name of DESIGN.md s4 (`rgbd`, `mono`).
+    /// The name of ARCHITECTURE.md section 4 (`rgbd`, `mono`).
     pub fn name(self) -> &'static str {
         match self {
             Mode::Rgbd => "rgbd",

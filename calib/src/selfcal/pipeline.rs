@@ -82,7 +82,7 @@ pub struct SelfCalParams {
     pub consistency: ConsistencyLimits,
 }
 
-/// The consistency refusal of the final X (never a wrong X, issue 8): [`self_calibrate`]
+/// The consistency refusal of the final X (never a wrong X): [`self_calibrate`]
 /// refuses with [`SelfCalError::Inconsistent`] when any rule fails, checked in this order:
 ///
 /// 1. **Consensus**: the used pairs are at least `min_kept_fraction` of the pairs that gave

@@ -1,4 +1,4 @@
-//! The calibration stage (DESIGN.md s3, issue 8): hand-eye self-calibration over the message
+//! The calibration stage (ARCHITECTURE.md section 3): hand-eye self-calibration over the message
 //! stream, and the camera edge `tool0 -> camera_color_optical_frame` on `/tf`.
 //!
 //! # Inputs and outputs

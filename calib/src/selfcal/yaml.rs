@@ -109,7 +109,7 @@ pub fn calibration_yaml(result: &SelfCalResult, method: &str, child_frame: &str)
     out
 }
 
-/// The `--json` object of `rodlog calib self`: the calibration JSON of DESIGN.md s4
+/// The `--json` object of `rodlog calib self`: the calibration JSON of ARCHITECTURE.md section 4
 /// ([`crate::handeye::calibration_json`], mode `rgbd`/`mono`, transform `tool0_from_camera`)
 /// plus `features_per_view`, the linear initialisation (`linear_translation_m`,
 /// `linear_quaternion_xyzw`) and `pair_reports`: one object per pair `i < j` with

@@ -1,4 +1,4 @@
-//! The "ZHI" baseline of the paper's comparisons (DESIGN.md s6-7): hand-eye calibration
+//! The "ZHI" baseline of the paper's comparisons (ARCHITECTURE.md sections 6-7): hand-eye calibration
 //! without a target after Zhi & Schwertfeger, "Simultaneous hand-eye calibration and
 //! reconstruction", IROS 2017, as the paper under reproduction summarises it: SIFT, ratio
 //! test 0.8, RANSAC, structure from motion, SVD hand-eye with an unknown scale, no
@@ -33,7 +33,7 @@
 //! Their paper iterates triangulation and bundle adjustment *with the camera poses expressed
 //! through the hand poses and X* (simultaneous calibration and reconstruction); the baseline
 //! the substation paper compares against, and this module, is the plain "SfM, then SVD"
-//! variant (DESIGN.md s6: no refinement). The SfM refinement here is resection-intersection
+//! variant (ARCHITECTURE.md section 6: no refinement). The SfM refinement here is resection-intersection
 //! (alternating per-camera pose LM and per-point triangulation, the block-coordinate form
 //! of bundle adjustment) instead of a joint sparse Levenberg-Marquardt; the resection uses
 //! the 6-point DLT in RANSAC instead of P3P. The camera intrinsics are known (as in the

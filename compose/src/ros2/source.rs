@@ -3,7 +3,7 @@
 //! pushes it with the bytes to record. [`ClockSource`]: the graph's `/clock`, which drives the
 //! robot clock under `use_sim_time`.
 //!
-//! A transport at the edge (STYLE.md 15): it converts, stamps and counts, nothing else. The
+//! A transport at the edge: it converts, stamps and counts, nothing else. The
 //! payload recorded is the payload received whenever the remap changes nothing.
 
 use std::sync::Arc;

@@ -8,7 +8,7 @@
 //!
 //! # Commanded (`/arm/joint_trajectory`)
 //! The start of a command is the last measured arm configuration before it (the controller
-//! starts from where the arm is). Two conventions, both in DESIGN.md's vocabulary:
+//! starts from where the arm is). Two conventions, both in ARCHITECTURE.md's vocabulary:
 //! * **via points** (every point's `velocities` empty or zero, as the planner and the
 //!   `script` stage publish): the controller runs each segment `q_{i-1} -> q_i` as a
 //!   synchronised rest-to-rest trapezoid in `Δt_i = t_i - t_{i-1}` (`sim::arm`). The segment

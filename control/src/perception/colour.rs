@@ -5,10 +5,10 @@
 //! about ambient light. The colour image, registered to the depth image, is an independent
 //! witness: in daylight the conductor's silhouette stands out from the sky or structure
 //! behind it; at dusk the camera's gain is high and its shot and read noise bury the same
-//! edge (DESIGN.md s6: dusk = lower SNR, not simply a darker image). A fit that the colour
+//! edge (ARCHITECTURE.md section 6: dusk = lower SNR, not simply a darker image). A fit that the colour
 //! image cannot confirm is a fit the robot has only one sensor's word for, so the confidence
-//! drops ([`super::confidence`], factor `colour_contrast`). This is the "feature validity" of
-//! issue 11; it is measured in the image, never read from the illuminance sensor.
+//! drops ([`super::confidence`], factor `colour_contrast`). This is the "feature validity" the
+//! task needs; it is measured in the image, never read from the illuminance sensor.
 //!
 //! # The measure
 //! At `N` stations along the axis (the extent of the fit's inliers), with `P` the axis point,

@@ -14,7 +14,7 @@
 //! | [`confidence`] | quality metrics -> score in [0, 1], refusal threshold |
 //! | [`synthetic`] | seeded synthetic depth captures (cylinder, plane, boxes, noise, holes) for tests and benches |
 //!
-//! Geometric ROI fitting replaces the paper's LA-Net segmentation (DESIGN.md s6): the wire is
+//! Geometric ROI fitting replaces the paper's LA-Net segmentation (ARCHITECTURE.md section 6): the wire is
 //! whatever a cylinder of the conductor's known radius explains best inside the ROI.
 //!
 //! # Conventions
@@ -33,7 +33,7 @@ pub mod roi;
 pub mod synthetic;
 pub mod wire;
 
-/// Conductor radius of the wire (m): 26.8 mm diameter (DESIGN.md s6).
+/// Conductor radius of the wire (m): 26.8 mm diameter (ARCHITECTURE.md section 6).
 pub const WIRE_RADIUS_M: f64 = 0.0134;
 
 /// Why perception produced no estimate (it refuses rather than guesses).

@@ -53,7 +53,7 @@ pub struct PinholeCamera {
 }
 
 impl PinholeCamera {
-    /// The wrist camera of DESIGN.md s6: 1280x1024, fx = fy = 1745 px, centred, small
+    /// The wrist camera of ARCHITECTURE.md section 6: 1280x1024, fx = fy = 1745 px, centred, small
     /// distortion `k1 = -0.05, k2 = 0.02, p1 = 0.0005, p2 = -0.0003, k3 = 0`.
     #[must_use]
     pub fn wrist_nominal() -> Self {

@@ -2,7 +2,7 @@
 //! the motion checks every plan passes before it is commanded.
 //!
 //! # Wind gate
-//! Operations are allowed at a 3-s mean wind of at most [`WIND_LIMIT_MPS`] (DESIGN.md s6).
+//! Operations are allowed at a 3-s mean wind of at most [`WIND_LIMIT_MPS`] (ARCHITECTURE.md section 6).
 //! The robot only has its anemometer: `/env/wind`, the 3-s mean ending at the sample time,
 //! 1 Hz, with a documented 1-sigma error `sigma(w) = 0.05 m/s + 2 % w` (`sim::environment`;
 //! a real Gill or Vaisala sensor states the same form). So the gate refuses at
@@ -20,7 +20,7 @@
 
 use msgs::{RobotDuration, RobotTime};
 
-/// The operating limit on the 3-s mean wind (m/s), DESIGN.md s6.
+/// The operating limit on the 3-s mean wind (m/s), ARCHITECTURE.md section 6.
 pub const WIND_LIMIT_MPS: f64 = 2.0;
 /// The anemometer's documented absolute 1-sigma error (m/s).
 pub const ANEMOMETER_SIGMA_MPS: f64 = 0.05;

@@ -249,7 +249,7 @@ pub struct ChannelInfo {
 }
 
 impl ChannelInfo {
-    /// The `producer` metadata (rodlog files); `None` for foreign files (DESIGN.md s2: inputs).
+    /// The `producer` metadata (rodlog files); `None` for foreign files (ARCHITECTURE.md section 2: inputs).
     pub fn producer(&self) -> Option<&str> {
         self.metadata.get("producer").map(String::as_str)
     }

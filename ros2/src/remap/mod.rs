@@ -1,7 +1,7 @@
 //! [`Remap`]: how a vendor driver's ROS 2 interface maps onto rodlog's topics, frames, joint
 //! names, units and encodings, read from a TOML *remap file* (`config/remap/*.toml`).
 //!
-//! A transport concern (STYLE.md 15): the stages only ever see rodlog's vocabulary
+//! A transport concern: the stages only ever see rodlog's vocabulary
 //! (`msgs::topics`, `msgs::frames`, SI units, `rgb8`/`32FC1` metres); the remap converts at
 //! the edge, before anything is recorded. A recording made through a remap carries the remap
 //! files as attachments, so what was converted, and how, stays with the data.

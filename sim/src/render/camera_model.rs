@@ -74,7 +74,7 @@ const MAX_NEWTON_ITERATIONS: usize = 30;
 const NEWTON_TOLERANCE: f64 = 1e-14;
 
 impl CameraIntrinsics {
-    /// The wrist RGB-D camera (Mech-Eye NANO class, DESIGN.md section 6): 1280x1024,
+    /// The wrist RGB-D camera (Mech-Eye NANO class, ARCHITECTURE.md section 6): 1280x1024,
     /// fx = fy = 1745 px, principal point slightly off centre, small barrel distortion.
     #[must_use]
     pub fn wrist() -> Self {

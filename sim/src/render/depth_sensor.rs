@@ -2,7 +2,7 @@
 //!
 //! Triangulation depth error: `sigma_z = sigma_ref (z / z_ref)^2` (disparity noise
 //! propagated through `z = f b / d` gives `dz = z^2 / (f b) dd`; Khoshelham & Elberink,
-//! Sensors 2012, eq. 10), with the design figure 0.1 mm at 0.5 m (DESIGN.md section 6).
+//! Sensors 2012, eq. 10), with the design figure 0.1 mm at 0.5 m (ARCHITECTURE.md section 6).
 //! Depth is `z` along the optical axis (not the range along the ray), registered to the colour
 //! pixels (same rays).
 //!

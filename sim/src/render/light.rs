@@ -4,7 +4,7 @@
 //! 18:00, elevation `e(h) = E_max sin(pi (h - 6) / 12)` with `E_max` = [`NOON_ELEVATION_DEG`],
 //! azimuth from north `A(h) = 90 deg + 180 deg (h - 6) / 12` (east -> south -> west).
 //!
-//! Global horizontal illuminance, anchored to DESIGN.md section 6 (~100 klx at noon, ~400 lx
+//! Global horizontal illuminance, anchored to ARCHITECTURE.md section 6 (~100 klx at noon, ~400 lx
 //! at sunset, ~3 lx at the end of civil twilight, e = -6 deg):
 //! * `e >= 0`: `E = 400 + (100000 - 400) (sin e / sin E_max)^1.3`;
 //! * `e < 0`: log-linear, `ln E = ln 400 + (ln 400 - ln 3) e / 6 deg`, floored at

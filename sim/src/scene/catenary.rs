@@ -19,7 +19,7 @@
 
 use nalgebra::{Isometry3, Point3, Translation3, Unit, UnitQuaternion, Vector3};
 
-/// Conductor diameter (m) from DESIGN.md section 6.
+/// Conductor diameter (m) from ARCHITECTURE.md section 6.
 pub const CONDUCTOR_DIAMETER_M: f64 = 0.0268;
 
 /// Errors of catenary construction.

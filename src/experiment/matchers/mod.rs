@@ -1,4 +1,4 @@
-//! `rodlog experiment matchers` (issue 6, DESIGN.md section 7): every matching method of
+//! `rodlog experiment matchers` (ARCHITECTURE.md section 7): every matching method of
 //! `calib::features::MatchMethod` on image pairs with known geometry, judged by that
 //! geometry, never by the method's own verdict.
 //!

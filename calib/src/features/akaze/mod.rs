@@ -1,7 +1,7 @@
 //! AKAZE features (Alcantarilla, Nuevo & Bartoli, "Fast Explicit Diffusion for Accelerated
 //! Features in Nonlinear Scale Spaces", BMVC 2013), written from the paper and the authors'
 //! reference implementation as shipped in OpenCV (`AKAZEFeatures.cpp`); the baseline
-//! "AKAZE + RANSAC" of issue 6.
+//! "AKAZE + RANSAC" matching baseline.
 //!
 //! - [`nonlinear_scale_space`]: Perona-Malik (g2) diffusion with Fast Explicit Diffusion
 //!   cycles ([`fed`]), contrast factor from the 70th gradient percentile, 4 octaves x 4

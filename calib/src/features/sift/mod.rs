@@ -1,5 +1,5 @@
 //! SIFT (Lowe, "Distinctive image features from scale-invariant keypoints", IJCV 60(2),
-//! 2004), the float-descriptor baseline of issue 6 and of the ZHI pipeline (issue 9).
+//! 2004), the float-descriptor baseline of the matchers experiment and of the ZHI pipeline.
 //!
 //! # Pipeline (section numbers of Lowe 2004)
 //! 1. [`scale_space`] (sec. 3): the input, assumed blurred by `sigma_n = 0.5`, is doubled by

@@ -38,13 +38,13 @@ use robot::robot_state::{RobotStateConfig, RobotStateStage};
 
 use crate::perception::WIRE_RADIUS_M;
 use crate::perception::point_cloud::{PinholeCamera, RayTable};
-use rng::SplitMix64;
 use crate::perception::synthetic::{
     self, CylinderShape, NoiseModel, Scene, render_depth, render_wire_rgb,
 };
 use crate::stages::task::{TaskConfig, TaskKind, TaskStage};
 use crate::tasks::poses;
 use crate::tasks::site::{BasePose, SiteMap};
+use rng::SplitMix64;
 
 /// The rig's period.
 pub const TICK: RobotDuration = RobotDuration::from_millis(50);
