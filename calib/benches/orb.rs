@@ -9,11 +9,17 @@
 use std::hint::black_box;
 use std::path::Path;
 
-use calib::features::command::{crop_resize, load_gray};
+use calib::features::command::{crop_resize, gray_from_encoded};
 use calib::features::synth::{textured_image, warp_homography};
 use calib::features::{Features, GrayBuf, OrbExtractor, OrbParams};
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::Matrix3;
+
+/// An image file as grey (calib decodes; the file is read here).
+fn load_gray(path: &Path) -> Result<image::GrayImage, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    gray_from_encoded(&bytes).map_err(|e| format!("{}: {e}", path.display()))
+}
 
 /// The bench frame A and its warp B (also saved as PNGs for the OpenCV script).
 pub fn bench_pair() -> (GrayBuf, GrayBuf) {

@@ -417,7 +417,10 @@ fn shecar_image_matches_its_homography_warp() {
     let Some(dir) = shecar_dir() else {
         return;
     };
-    let full = calib::features::command::load_gray(&dir.join("00.jpg")).expect("load");
+    let full = calib::features::command::gray_from_encoded(
+        &std::fs::read(dir.join("00.jpg")).expect("read"),
+    )
+    .expect("decode");
     let small = image::imageops::resize(&full, 1280, 720, image::imageops::FilterType::Triangle);
     let mut a = GrayBuf::default();
     a.copy_from(&GrayView::from_image(&small));
@@ -434,10 +437,12 @@ fn shecar_image_matches_its_homography_warp() {
     assert!(kept >= 300 && good * 100 >= kept * 90, "{good} of {kept}");
 }
 
-/// `rodlog calib match`'s library side: files in, JSON and picture out.
+/// `rodlog calib match`'s library side: encoded images in, JSON and picture out.
 #[test]
 fn match_command_writes_json_and_picture() {
-    use calib::features::command::{MatchCommand, match_json, match_summary, run_match_command};
+    use calib::features::command::{
+        PairMatching, gray_from_encoded, match_json, match_pair, match_picture, match_summary,
+    };
     let dir = std::env::temp_dir().join(format!("rodlog-features-cmd-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
     let a = textured_image(640, 480, 8);
@@ -450,10 +455,14 @@ fn match_command_writes_json_and_picture() {
             .save(p)
             .expect("png");
     }
-    let mut cmd = MatchCommand::new(&pa, &pb);
-    cmd.n_features = 1000;
-    cmd.picture = Some(pic.clone());
-    let r = run_match_command(&cmd).expect("match");
+    let how = PairMatching {
+        n_features: 1000,
+        ..PairMatching::default()
+    };
+    let decoded = |p: &std::path::Path| gray_from_encoded(&std::fs::read(p).expect("read"));
+    let (ga, gb) = (decoded(&pa).expect("png a"), decoded(&pb).expect("png b"));
+    let r = match_pair(&ga, &gb, &how).expect("match");
+    match_picture(&ga, &gb, &r).save(&pic).expect("picture");
     assert_eq!(r.features_a.keypoints.len(), 1000);
     let json: serde_json::Value = serde_json::from_str(&match_json(&r)).expect("json");
     assert_eq!(json["method"], "orb-gms");
@@ -474,10 +483,14 @@ fn match_command_writes_json_and_picture() {
     let png = image::open(&pic).expect("picture").to_rgb8();
     assert_eq!(png.dimensions(), (1280, 480));
     eprintln!("{}\npicture: {}", match_summary(&r), pic.display());
-    // Errors name the file.
-    let err =
-        run_match_command(&MatchCommand::new(dir.join("missing.png"), &pb)).expect_err("missing");
-    assert!(err.to_string().contains("missing.png"), "{err}");
+    // Bytes that are no image, and a zero feature count, are errors.
+    let err = gray_from_encoded(b"not an image").expect_err("garbage");
+    assert!(err.to_string().contains("cannot decode"), "{err}");
+    let none = PairMatching {
+        n_features: 0,
+        ..PairMatching::default()
+    };
+    assert!(match_pair(&ga, &gb, &none).is_err());
     assert!("surf".parse::<MatchMethod>().is_err());
     assert_eq!("sift".parse::<MatchMethod>().ok(), Some(MatchMethod::Sift));
 }

@@ -12,7 +12,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use calib::features::command::{MatchCommand, load_gray, run_match_command};
+use calib::features::command::{PairMatching, gray_from_encoded, match_pair};
 use calib::features::gms::{GmsParams, gms_filter};
 use calib::features::gray::{GrayBuf, GrayView};
 use calib::features::matcher::Match;
@@ -175,7 +175,8 @@ fn orb_bf_gms_at_least_matches_opencv_on_known_homographies() {
     ];
     let (mut ours_total, mut cv_total) = ((0, 0, 0), (0, 0, 0));
     for (name, hb) in cases {
-        let full = load_gray(&shecar.join(name)).expect("load");
+        let full =
+            gray_from_encoded(&std::fs::read(shecar.join(name)).expect("read")).expect("decode");
         let small =
             image::imageops::resize(&full, 1280, 720, image::imageops::FilterType::Triangle);
         let mut a = GrayBuf::default();
@@ -191,7 +192,10 @@ fn orb_bf_gms_at_least_matches_opencv_on_known_homographies() {
                 .save(p)
                 .expect("save png");
         }
-        let r = run_match_command(&MatchCommand::new(&pa, &pb)).expect("match");
+        let decoded = |p: &std::path::Path| {
+            gray_from_encoded(&std::fs::read(p).expect("read")).expect("decode")
+        };
+        let r = match_pair(&decoded(&pa), &decoded(&pb), &PairMatching::default()).expect("match");
         let ours = score(&our_pairs(&r), &hb);
         let cv = reference(
             &py,

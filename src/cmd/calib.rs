@@ -459,19 +459,26 @@ fn self_calibration_zhi(args: &SelfArgs) -> Result<()> {
 }
 
 fn match_images(args: &MatchArgs) -> Result<()> {
-    use calib::features::command::{MatchCommand, match_json, match_summary, run_match_command};
+    use calib::features::command::{
+        PairMatching, match_json, match_pair, match_picture, match_summary,
+    };
     if args.features == 0 {
         bail!("--features must be at least 1");
     }
-    let command = MatchCommand {
+    let how = PairMatching {
         // The error names the method and lists the available ones.
         method: args.method.parse()?,
         n_features: args.features,
-        picture: args.picture.clone(),
         distribution: args.distribution.into(),
-        ..MatchCommand::new(&args.image_a, &args.image_b)
     };
-    let result = run_match_command(&command)?;
+    let a = read_gray(&args.image_a)?;
+    let b = read_gray(&args.image_b)?;
+    let result = match_pair(&a, &b, &how)?;
+    if let Some(out) = &args.picture {
+        match_picture(&a, &b, &result)
+            .save(out)
+            .with_context(|| format!("cannot write the match picture {}", out.display()))?;
+    }
     if args.json {
         super::print_stdout(&match_json(&result))?;
     } else {
@@ -481,6 +488,14 @@ fn match_images(args: &MatchArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// An image file (PNG, JPEG) as 8-bit grey.
+fn read_gray(path: &std::path::Path) -> Result<image::GrayImage> {
+    let bytes =
+        std::fs::read(path).with_context(|| format!("cannot read image {}", path.display()))?;
+    calib::features::command::gray_from_encoded(&bytes)
+        .with_context(|| format!("cannot read image {}", path.display()))
 }
 
 /// The human-readable result (the JSON's figures, with units and the direction spelled out).

@@ -5,13 +5,19 @@
 use std::path::Path;
 
 use calib::features::GrayBuf;
-use calib::features::command::{crop_resize, load_gray};
+use calib::features::command::{crop_resize, gray_from_encoded};
 use calib::features::synth::{textured_image, warp_homography};
 use nalgebra::Matrix3;
 
 /// The homography `b_from_a` from frame A to frame B.
 pub fn warp() -> Matrix3<f64> {
     Matrix3::new(0.95, -0.12, 60.0, 0.10, 0.97, -20.0, 2e-5, -1e-5, 1.0)
+}
+
+/// An image file as grey (calib decodes; the file is read here).
+fn load_gray(path: &Path) -> Result<image::GrayImage, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    gray_from_encoded(&bytes).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Frame A and its warp B, both 1280x1024.

@@ -1,11 +1,9 @@
-//! Everything `rodlog calib match A B [--method ..] [--features N] [--distribution ..] [--json] [-o pic.png]`
-//! does (ARCHITECTURE.md section 4), so the CLI only parses flags and prints: load two image
-//! files (any format the `image` crate decodes here: PNG, JPEG; colour is converted to gray
-//! with OpenCV's BT.601 weights), run [`match_images`], write the match picture, and render
-//! the match JSON. This is the thin I/O shell around the pure front end.
+//! `rodlog calib match` without the files (ARCHITECTURE.md section 4): decode two encoded
+//! images (PNG, JPEG: bytes the caller read; colour is converted to grey with OpenCV's BT.601
+//! weights), match them ([`match_images`]), draw the match picture, and render the match JSON.
+//! The binary reads and writes the files; nothing here does I/O.
 
-use std::path::{Path, PathBuf};
-
+use image::{GrayImage, RgbImage};
 use serde::Serialize;
 
 use super::draw::draw_matches;
@@ -15,44 +13,35 @@ use super::{
     match_images,
 };
 
-/// The inputs of `rodlog calib match`.
-#[derive(Clone, Debug, PartialEq)]
-pub struct MatchCommand {
-    /// Image A.
-    pub image_a: PathBuf,
-    /// Image B.
-    pub image_b: PathBuf,
+/// How `rodlog calib match` matches a pair.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PairMatching {
     /// `--method` (default `orb-gms`).
     pub method: MatchMethod,
     /// `--features` (default 2000): ORB's target count, SIFT's cap on the strongest.
     pub n_features: usize,
-    /// `-o`: where to write the match picture (PNG or JPEG by extension).
-    pub picture: Option<PathBuf>,
     /// `--distribution` (default the quadtree): how ORB keeps its features per level.
     pub distribution: KeypointDistribution,
 }
 
-impl MatchCommand {
-    /// Defaults for two images: `orb-gms`, 2000 features, no picture.
-    pub fn new(image_a: impl Into<PathBuf>, image_b: impl Into<PathBuf>) -> Self {
+impl Default for PairMatching {
+    /// `orb-gms`, 2000 features, the quadtree.
+    fn default() -> Self {
         Self {
-            image_a: image_a.into(),
-            image_b: image_b.into(),
             method: MatchMethod::OrbGms,
             n_features: 2000,
-            picture: None,
             distribution: KeypointDistribution::Quadtree,
         }
     }
 }
 
-/// Reads an image file as 8-bit gray.
+/// Decodes an encoded image (any format the `image` crate decodes here: PNG, JPEG) to 8-bit
+/// grey.
 ///
 /// # Errors
-/// [`FeatureError::ImageRead`] with the decoder's message.
-pub fn load_gray(path: &Path) -> Result<image::GrayImage, FeatureError> {
-    let img = image::open(path).map_err(|e| FeatureError::ImageRead {
-        path: path.to_owned(),
+/// [`FeatureError::ImageDecode`] with the decoder's message.
+pub fn gray_from_encoded(bytes: &[u8]) -> Result<GrayImage, FeatureError> {
+    let img = image::load_from_memory(bytes).map_err(|e| FeatureError::ImageDecode {
         message: e.to_string(),
     })?;
     Ok(match img {
@@ -61,42 +50,42 @@ pub fn load_gray(path: &Path) -> Result<image::GrayImage, FeatureError> {
     })
 }
 
-/// Runs `rodlog calib match`: loads both images, matches them, writes the picture when
-/// asked. Print [`match_json`] (for `--json`) or [`match_summary`] of the result.
+/// Matches image `a` against image `b` as `rodlog calib match` does. Print [`match_json`]
+/// (for `--json`) or [`match_summary`] of the result.
 ///
 /// # Errors
-/// [`FeatureError::ImageRead`], [`FeatureError::ImageWrite`], [`FeatureError::InvalidParam`]
-/// (e.g. `n_features` = 0), [`FeatureError::ImageTooSmall`].
-pub fn run_match_command(cmd: &MatchCommand) -> Result<MatchResult, FeatureError> {
-    if cmd.n_features == 0 {
+/// [`FeatureError::InvalidParam`] (e.g. `n_features` = 0), [`FeatureError::ImageTooSmall`].
+pub fn match_pair(
+    a: &GrayImage,
+    b: &GrayImage,
+    how: &PairMatching,
+) -> Result<MatchResult, FeatureError> {
+    if how.n_features == 0 {
         return Err(FeatureError::InvalidParam {
             name: "n_features",
             value: 0.0,
         });
     }
-    let a = load_gray(&cmd.image_a)?;
-    let b = load_gray(&cmd.image_b)?;
-    let (va, vb) = (GrayView::from_image(&a), GrayView::from_image(&b));
-    let mut params = MatchImagesParams::for_method(cmd.method);
-    params.orb.n_features = cmd.n_features;
-    params.orb.distribution = cmd.distribution;
-    params.sift.n_features = cmd.n_features;
-    let result = match_images(&va, &vb, cmd.method, &params)?;
-    if let Some(out) = &cmd.picture {
-        let pic = draw_matches(
-            &va,
-            &vb,
-            &result.features_a.keypoints,
-            &result.features_b.keypoints,
-            &result.matches,
-            &result.inliers,
-        );
-        pic.save(out).map_err(|e| FeatureError::ImageWrite {
-            path: out.clone(),
-            message: e.to_string(),
-        })?;
-    }
-    Ok(result)
+    let (va, vb) = (GrayView::from_image(a), GrayView::from_image(b));
+    let mut params = MatchImagesParams::for_method(how.method);
+    params.orb.n_features = how.n_features;
+    params.orb.distribution = how.distribution;
+    params.sift.n_features = how.n_features;
+    match_images(&va, &vb, how.method, &params)
+}
+
+/// The match picture of a pair: both images side by side, the kept matches in green and the
+/// rejected ones in red.
+#[must_use]
+pub fn match_picture(a: &GrayImage, b: &GrayImage, result: &MatchResult) -> RgbImage {
+    draw_matches(
+        &GrayView::from_image(a),
+        &GrayView::from_image(b),
+        &result.features_a.keypoints,
+        &result.features_b.keypoints,
+        &result.matches,
+        &result.inliers,
+    )
 }
 
 /// Centre crop of `img` to the aspect ratio of `width x height`, then a triangle-filter

@@ -35,7 +35,6 @@ pub mod quadtree;
 pub mod sift;
 pub mod synth;
 
-use std::path::PathBuf;
 use std::time::Instant;
 
 pub use gms::{GmsParams, gms_filter};
@@ -89,20 +88,10 @@ pub enum FeatureError {
         /// The names [`MatchMethod::ALL`] accepts, comma separated.
         available: String,
     },
-    /// An image file could not be read or decoded.
-    #[error("cannot read image {path}: {message}")]
-    ImageRead {
-        /// The file.
-        path: PathBuf,
+    /// Encoded image bytes could not be decoded.
+    #[error("cannot decode the image: {message}")]
+    ImageDecode {
         /// The decoder's message.
-        message: String,
-    },
-    /// An image file could not be written.
-    #[error("cannot write image {path}: {message}")]
-    ImageWrite {
-        /// The file.
-        path: PathBuf,
-        /// The encoder's message.
         message: String,
     },
 }

@@ -297,3 +297,38 @@ fn eigenvector(a: &SMatrix<f64, 10, 10>, lambda: f64) -> Option<SVector<f64, 10>
     let v: SVector<f64, 10> = svd.v_t?.row(9).transpose();
     residual_ok(&v).then_some(v)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn monomial_tables_are_consistent() {
+        for (k, e) in EXPONENTS.iter().enumerate() {
+            assert_eq!(MONO_INDEX[e[0]][e[1]][e[2]], k);
+        }
+        // x * x^2 = x^3, y * xz = xyz, 1 * 1 = 1, x^2 * x^2 is dropped (degree 4).
+        assert_eq!(PRODUCT[16][10], 0);
+        assert_eq!(PRODUCT[17][13], 5);
+        assert_eq!(PRODUCT[19][19], 19);
+        assert_eq!(PRODUCT[10][10], usize::MAX);
+    }
+
+    #[test]
+    fn polynomial_product_expands_correctly() {
+        // (x + 2)(y - 1) = xy - x + 2y - 2.
+        let mut p = [0.0; N_MONO];
+        p[16] = 1.0;
+        p[19] = 2.0;
+        let mut q = [0.0; N_MONO];
+        q[17] = 1.0;
+        q[19] = -1.0;
+        let r = poly_mul(&p, &q);
+        let mut expected = [0.0; N_MONO];
+        expected[11] = 1.0;
+        expected[16] = -1.0;
+        expected[17] = 2.0;
+        expected[19] = -2.0;
+        assert_eq!(r, expected);
+    }
+}

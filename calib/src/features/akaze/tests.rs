@@ -5,7 +5,7 @@ use nalgebra::Matrix3;
 
 use super::*;
 use crate::features::GrayBuf;
-use crate::features::command::{crop_resize, load_gray};
+use crate::features::command::{crop_resize, gray_from_encoded};
 use crate::features::synth::{apply_homography, similarity, textured_image, warp_homography};
 
 fn detect(img: &GrayBuf, params: &AkazeParams) -> AkazeFeatures {
@@ -14,7 +14,7 @@ fn detect(img: &GrayBuf, params: &AkazeParams) -> AkazeFeatures {
 
 fn shecar_crop(w: u32, h: u32) -> Option<GrayBuf> {
     let p = testkit::shared_data("shecar/00.jpg", "AKAZE on a real image")?;
-    let full = load_gray(&p).ok()?;
+    let full = gray_from_encoded(&std::fs::read(&p).ok()?).ok()?;
     let img = crop_resize(&full, w, h);
     Some(GrayBuf {
         data: img.into_raw(),
