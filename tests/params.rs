@@ -45,6 +45,13 @@ fn rewrite(
         if m.name == scenario::SCENARIO_RECORD {
             edit(&mut rec.entries);
         }
+        // The extra producer was one of the recording's stages.
+        if let (Some(producer), "pipeline") = (extra, m.name.as_str())
+            && let Some(stages) = rec.entries.get_mut("stages")
+        {
+            stages.push(',');
+            stages.push_str(producer);
+        }
         sink.write_metadata(&rec)?;
     }
     for a in reader.attachments().to_vec() {
