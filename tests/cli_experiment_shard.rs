@@ -109,3 +109,35 @@ fn matchers_split_in_two_and_merged_equals_one_run() {
     ]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("expected K/N"));
 }
+
+/// The calibration experiments shard by trial (datasets: shecar is one more item), and their
+/// merged tables equal one run's.
+#[test]
+fn calibration_experiments_split_in_two_and_merged_equal_one_run() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    for name in ["noise", "datasets"] {
+        let dir = |s: &str| tmp.path().join(name).join(s).display().to_string();
+        let common = ["--trials", "2", "--image-scale", "0.3", "--no-reference"];
+        let run = |extra: &[&str]| {
+            let mut args = vec!["experiment", name];
+            args.extend_from_slice(&common);
+            args.extend_from_slice(extra);
+            ok(&args);
+        };
+        run(&["--out", &dir("whole")]);
+        run(&["--shard", "0/2", "--out", &dir("s0")]);
+        run(&["--shard", "1/2", "--out", &dir("s1")]);
+        ok(&[
+            "experiment",
+            "merge",
+            "--out",
+            &dir("merged"),
+            &dir("s0"),
+            &dir("s1"),
+        ]);
+        let whole = without_timing(&tmp.path().join(name).join("whole/results.json"));
+        let merged = without_timing(&tmp.path().join(name).join("merged/results.json"));
+        assert_eq!(whole, merged, "{name}");
+        assert_eq!(whole["seeds"].as_array().map(Vec::len), Some(2), "{name}");
+    }
+}

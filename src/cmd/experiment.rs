@@ -88,8 +88,9 @@ pub struct ExperimentArgs {
     /// Output folder (default: experiment-NAME in the current folder).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Run only shard K of N (0-based): the items i with i mod N = K; writes DIR/shard.cbor
-    /// for `rodlog experiment merge` instead of a report.
+    /// Run only shard K of N (0-based): the experiment's items are dealt to N shards (a fixed
+    /// shuffle, then round robin) and this runs hand K; writes DIR/shard.cbor for
+    /// `rodlog experiment merge` instead of a report.
     #[arg(long, value_name = "K/N")]
     pub shard: Option<String>,
     /// The experiment's options.
@@ -153,16 +154,6 @@ fn run_named(
     }
     if options.trials == Some(0) {
         bail!("--trials must be at least 1");
-    }
-    if matches!(
-        name,
-        ExperimentName::Noise | ExperimentName::Motions | ExperimentName::Datasets
-    ) && mode != Mode::All
-    {
-        bail!(
-            "experiment {} cannot be sharded yet: run it whole",
-            name.name()
-        );
     }
     let settings = || -> Result<Settings> {
         Ok(Settings {

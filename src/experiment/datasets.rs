@@ -26,15 +26,15 @@ use calib::selfcal::{CalibView, self_calibrate};
 use calib::zhi::{ZhiParams, calibrate_zhi};
 use nalgebra::Isometry3;
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::noise::{
-    Cell, METHODS, SimContext, VIEWS, box_plots, error_table, ours_params, record_outcomes,
-    refusal_table, render_trial, run_methods,
+    Cell, METHODS, SimContext, TrialRecord, VIEWS, book_trials, box_plots, error_table,
+    ours_params, refusal_table, render_trial, run_methods,
 };
 use super::progress::Progress;
 use super::report::{Report, Results, Table, fmt_num, fmt_pct};
-use super::stats::{RefusalCounter, Summary};
+use super::stats::Summary;
 use super::{Settings, trial_seed};
 
 /// Simulator trials when `--trials` is not given.
@@ -47,7 +47,7 @@ pub const SHECAR_MIN_SCALE: f64 = 0.2;
 pub const PAPER: [(f64, f64); 2] = [(0.258, 0.173), (0.253, 0.246)];
 
 /// Residual figures of one X on shecar.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ShecarScore {
     /// Method.
     pub method: String,
@@ -71,6 +71,24 @@ pub struct ShecarScore {
     pub vs_board_deg: f64,
     /// Translation distance to the board solution, mm.
     pub vs_board_mm: f64,
+}
+
+/// One item of the experiment: a simulator trial, or the shecar scoring (the last item),
+/// which a shard keeps as it is and a merge books again.
+#[derive(Serialize, Deserialize)]
+enum DatasetItem {
+    Simulator(TrialRecord),
+    Shecar(Result<ShecarRecord, String>),
+}
+
+/// What the report says of shecar.
+#[derive(Serialize, Deserialize)]
+struct ShecarRecord {
+    scores: Vec<ShecarScore>,
+    scale: f64,
+    width: u32,
+    height: u32,
+    board_pairs: usize,
 }
 
 fn median(v: &[f64]) -> f64 {
@@ -106,21 +124,52 @@ pub fn board_residuals(motions: &[RelativeMotion], x: &Isometry3<f64>) -> (f64, 
 pub fn run(settings: &Settings) -> Result<()> {
     let trials = settings.trials_or(DEFAULT_TRIALS);
     let ctx = SimContext::new(settings)?;
-    let progress = Progress::new("datasets", (2 * trials + 3) as u64);
     let cond = "simulator".to_owned();
-    let mut cells = vec![vec![Cell::default(); METHODS.len()]];
-    let mut refusals = RefusalCounter::default();
-    let mut seeds = Vec::with_capacity(trials);
-    for t in 0..trials {
-        let seed = trial_seed(settings.seed, 2, t as u64);
-        seeds.push(seed);
-        let trial = render_trial(&ctx, seed, VIEWS)?;
-        progress.inc(1);
-        let outcomes = run_methods(&ctx, &trial, VIEWS, 0.0, 0)?;
-        record_outcomes(&cond, outcomes, &mut refusals, &mut cells[0]);
-        progress.inc(1);
+    // Items 0..trials are the simulator's trials, item `trials` is shecar.
+    let items = settings.run_items(trials + 1, |ids| {
+        let progress = Progress::new("datasets", (2 * ids.len() + 3) as u64);
+        let items = ids
+            .iter()
+            .map(|&i| -> Result<DatasetItem> {
+                if i == trials {
+                    let shecar = shecar_scores(settings, &progress)
+                        .map(|(scores, scale, camera, board_pairs)| ShecarRecord {
+                            scores,
+                            scale,
+                            width: camera.width,
+                            height: camera.height,
+                            board_pairs,
+                        })
+                        .map_err(|e| format!("{e:#}"));
+                    return Ok(DatasetItem::Shecar(shecar));
+                }
+                let seed = trial_seed(settings.seed, 2, i as u64);
+                let trial = render_trial(&ctx, seed, VIEWS)?;
+                progress.inc(1);
+                let outcomes = run_methods(&ctx, &trial, VIEWS, 0.0, 0)?;
+                progress.inc(1);
+                Ok(DatasetItem::Simulator(TrialRecord {
+                    seed,
+                    outcomes: vec![outcomes],
+                }))
+            })
+            .collect::<Result<Vec<_>>>();
+        progress.finish();
+        items
+    })?;
+    let Some(items) = items else {
+        return Ok(());
+    };
+    let mut records = Vec::with_capacity(trials);
+    let mut shecar = Err("shecar was not run".to_owned());
+    for item in items {
+        match item {
+            DatasetItem::Simulator(r) => records.push(r),
+            DatasetItem::Shecar(s) => shecar = s,
+        }
     }
     let conditions = vec![cond.clone()];
+    let (cells, refusals, seeds) = book_trials(&records, &conditions);
     let mut report = Report::new("Experiment datasets: ours vs ZHI (paper Tables 2-3)");
     report.heading("Dataset 1: simulator");
     report.paragraph(&format!(
@@ -176,11 +225,16 @@ pub fn run(settings: &Settings) -> Result<()> {
 
     // Dataset 2: shecar.
     report.heading("Dataset 2: shecar (ZHI's sample)");
-    let shecar = shecar_scores(settings, &progress);
     let mut results = Results::new("datasets", settings.seed);
     results.parameter("orb_distribution", settings.orb_distribution.name())?;
     match &shecar {
-        Ok((scores, scale, camera, board_pairs)) => {
+        Ok(ShecarRecord {
+            scores,
+            scale,
+            width,
+            height,
+            board_pairs,
+        }) => {
             report.paragraph(&format!(
                 "18 photos resized to {}x{} (x{scale:.2}); eye motions for scoring: the \
                  chessboard poses ({board_pairs} pairs with the board found in both views). \
@@ -189,7 +243,7 @@ pub fn run(settings: &Settings) -> Result<()> {
                  'vs board X' = distance to the board's hand-eye solution (good to ~1 deg / \
                  2 cm only: a sanity bound). Paper: ours better by 25.3 % (e_t) and 24.6 % \
                  (e_R).",
-                camera.width, camera.height
+                width, height
             ));
             let mut t = Table::new(&[
                 "method",
@@ -225,11 +279,10 @@ pub fn run(settings: &Settings) -> Result<()> {
             results.parameter("shecar_scale", scale)?;
         }
         Err(e) => {
-            report.paragraph(&format!("shecar not scored: {e:#}"));
-            results.section("shecar_error", format!("{e:#}"))?;
+            report.paragraph(&format!("shecar not scored: {e}"));
+            results.section("shecar_error", e)?;
         }
     }
-    progress.finish();
     results.seeds = seeds;
     results.parameter("trials", trials)?;
     results.parameter("views", VIEWS)?;

@@ -9,14 +9,12 @@
 
 use anyhow::Result;
 
+use super::Settings;
 use super::noise::{
-    Cell, METHODS, SimContext, VIEWS, box_plots, error_table, record_outcomes, refusal_table,
-    render_trial, run_methods,
+    METHODS, SimContext, VIEWS, book_trials, box_plots, error_table, refusal_table, run_trials,
 };
-use super::progress::Progress;
 use super::report::{Report, Results};
-use super::stats::{RefusalCounter, Summary};
-use super::{Settings, trial_seed};
+use super::stats::Summary;
 
 /// Trials when `--trials` is not given (the paper's).
 pub const DEFAULT_TRIALS: usize = 100;
@@ -36,23 +34,22 @@ pub fn run(settings: &Settings) -> Result<()> {
     let ctx = SimContext::new(settings)?;
     let counts: Vec<usize> = (MIN_VIEWS..=VIEWS).collect();
     let conditions: Vec<String> = counts.iter().map(|k| format!("{k}")).collect();
-    let progress = Progress::new("motions", (trials * (1 + counts.len())) as u64);
-    let mut cells = vec![vec![Cell::default(); METHODS.len()]; conditions.len()];
-    let mut refusals = RefusalCounter::default();
-    let mut seeds = Vec::with_capacity(trials);
-    for t in 0..trials {
-        let seed = trial_seed(settings.seed, 1, t as u64);
-        seeds.push(seed);
-        let trial = render_trial(&ctx, seed, VIEWS)?;
-        progress.inc(1);
-        let noise_seed = sim::rng::key(seed, STREAM_NOISE, 0);
-        for (c, k) in counts.iter().enumerate() {
-            let outcomes = run_methods(&ctx, &trial, *k, NOISE_SIGMA, noise_seed)?;
-            record_outcomes(&conditions[c], outcomes, &mut refusals, &mut cells[c]);
-            progress.inc(1);
-        }
-    }
-    progress.finish();
+    let records = run_trials(
+        settings,
+        &ctx,
+        "motions",
+        1,
+        trials,
+        counts.len(),
+        |seed, c| {
+            let k = counts.get(c).copied().unwrap_or(VIEWS);
+            (k, NOISE_SIGMA, sim::rng::key(seed, STREAM_NOISE, 0))
+        },
+    )?;
+    let Some(records) = records else {
+        return Ok(());
+    };
+    let (cells, refusals, seeds) = book_trials(&records, &conditions);
     let mut report = Report::new("Experiment motions: hand-eye error vs number of motions");
     report.paragraph(&format!(
         "{trials} trials; condition k uses the first k of the trial's {VIEWS} views \

@@ -36,7 +36,7 @@ use calib::selfcal::{CalibView, SelfCalError, SelfCalParams, self_calibrate};
 use calib::zhi::{ZhiParams, calibrate_zhi};
 use nalgebra::{Isometry3, Point3, Translation3, Unit, UnitQuaternion, Vector3};
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use sim::render::{
     CameraIntrinsics, LightConditions, RayTable, SensorParams, render_rgbd_with_rays,
     world_from_camera_looking_at,
@@ -290,7 +290,7 @@ pub fn calib_views(
 }
 
 /// Errors of one estimate against the truth.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PoseErrors {
     /// `||R_err - I||_2 = 2 sin(theta / 2)`.
     pub e_r: f64,
@@ -312,8 +312,79 @@ impl PoseErrors {
     }
 }
 
-/// Outcome of every method on one set of views: `Ok(errors)` or the refusal text.
-pub type MethodOutcomes = Vec<(&'static str, Result<PoseErrors, String>)>;
+/// Outcome of every method on one set of views, in [`METHODS`] order: `Ok(errors)` or the
+/// refusal text.
+pub type MethodOutcomes = Vec<(String, Result<PoseErrors, String>)>;
+
+/// One trial's record: its seed and, per condition, every method's outcome. It is the item
+/// a shard keeps and a merge books again ([`book_trials`]), so an experiment's tables come
+/// from these records whether it ran whole or in shards.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct TrialRecord {
+    /// The trial's seed.
+    pub seed: u64,
+    /// Per condition, every method's outcome.
+    pub outcomes: Vec<MethodOutcomes>,
+}
+
+/// Books trial records, in trial order, into per-condition cells (`cells[c][m]`) and the
+/// refusal counter; returns them with the trials' seeds.
+#[must_use]
+pub fn book_trials(
+    records: &[TrialRecord],
+    conditions: &[String],
+) -> (Vec<Vec<Cell>>, RefusalCounter, Vec<u64>) {
+    let mut cells = vec![vec![Cell::default(); METHODS.len()]; conditions.len()];
+    let mut refusals = RefusalCounter::default();
+    let mut seeds = Vec::with_capacity(records.len());
+    for r in records {
+        seeds.push(r.seed);
+        for ((condition, outcomes), cell) in conditions.iter().zip(&r.outcomes).zip(&mut cells) {
+            record_outcomes(condition, outcomes.clone(), &mut refusals, cell);
+        }
+    }
+    (cells, refusals, seeds)
+}
+
+/// Runs the trials of `settings.mode` (all, one shard's, none when merging): each renders its
+/// [`VIEWS`] views once and runs the methods under each of `conditions` conditions, where
+/// `condition(seed, c)` gives the views used, the noise sigma and the noise seed. `stream`
+/// separates the experiments' trial seeds. `None` for a shard run (its records were written).
+///
+/// # Errors
+/// Rendering failures; writing or reading shard records.
+pub fn run_trials(
+    settings: &Settings,
+    ctx: &SimContext,
+    name: &str,
+    stream: u64,
+    trials: usize,
+    conditions: usize,
+    condition: impl Fn(u64, usize) -> (usize, f64, u64),
+) -> Result<Option<Vec<TrialRecord>>> {
+    settings.run_items(trials, |ids| {
+        let progress = Progress::new(name, (ids.len() * (1 + conditions)) as u64);
+        let records = ids
+            .iter()
+            .map(|&t| -> Result<TrialRecord> {
+                let seed = trial_seed(settings.seed, stream, t as u64);
+                let trial = render_trial(ctx, seed, VIEWS)?;
+                progress.inc(1);
+                let outcomes = (0..conditions)
+                    .map(|c| {
+                        let (n, sigma, noise_seed) = condition(seed, c);
+                        let outcomes = run_methods(ctx, &trial, n, sigma, noise_seed);
+                        progress.inc(1);
+                        outcomes
+                    })
+                    .collect::<Result<Vec<_>>>()?;
+                Ok(TrialRecord { seed, outcomes })
+            })
+            .collect::<Result<Vec<_>>>();
+        progress.finish();
+        records
+    })
+}
 
 /// Runs the three methods (module docs) on the first `n` views of `trial` at noise `sigma`.
 ///
@@ -358,10 +429,10 @@ pub fn run_methods(
         .map(|r| score(&r.solution.tool0_from_camera))
         .map_err(|e| e.to_string());
     Ok(vec![
-        ("ours-rgbd", a),
-        ("ours-mono", b),
-        ("ours-mono-unchecked", b_unchecked),
-        ("zhi", c),
+        ("ours-rgbd".to_owned(), a),
+        ("ours-mono".to_owned(), b),
+        ("ours-mono-unchecked".to_owned(), b_unchecked),
+        ("zhi".to_owned(), c),
     ])
 }
 
@@ -374,7 +445,7 @@ pub fn record_outcomes(
     cells: &mut [Cell],
 ) {
     for ((method, out), cell) in outcomes.into_iter().zip(cells.iter_mut()) {
-        if let Some(e) = refusals.record(condition, method, out.map_err(|e| short_reason(&e))) {
+        if let Some(e) = refusals.record(condition, &method, out.map_err(|e| short_reason(&e))) {
             cell.push(&e);
         }
     }
@@ -558,23 +629,22 @@ pub fn run(settings: &Settings) -> Result<()> {
         .iter()
         .map(|s| format!("sigma={s:.2}"))
         .collect();
-    let progress = Progress::new("noise", (trials * (1 + NOISE_SIGMAS.len())) as u64);
-    let mut cells = vec![vec![Cell::default(); METHODS.len()]; conditions.len()];
-    let mut refusals = RefusalCounter::default();
-    let mut seeds = Vec::with_capacity(trials);
-    for t in 0..trials {
-        let seed = trial_seed(settings.seed, 0, t as u64);
-        seeds.push(seed);
-        let trial = render_trial(&ctx, seed, VIEWS)?;
-        progress.inc(1);
-        for (c, sigma) in NOISE_SIGMAS.iter().enumerate() {
-            let noise_seed = sim::rng::key(seed, STREAM_NOISE, c as u64);
-            let outcomes = run_methods(&ctx, &trial, VIEWS, *sigma, noise_seed)?;
-            record_outcomes(&conditions[c], outcomes, &mut refusals, &mut cells[c]);
-            progress.inc(1);
-        }
-    }
-    progress.finish();
+    let records = run_trials(
+        settings,
+        &ctx,
+        "noise",
+        0,
+        trials,
+        NOISE_SIGMAS.len(),
+        |seed, c| {
+            let sigma = NOISE_SIGMAS.get(c).copied().unwrap_or(0.0);
+            (VIEWS, sigma, sim::rng::key(seed, STREAM_NOISE, c as u64))
+        },
+    )?;
+    let Some(records) = records else {
+        return Ok(());
+    };
+    let (cells, refusals, seeds) = book_trials(&records, &conditions);
     let mut report = Report::new("Experiment noise: hand-eye error vs image noise");
     report.paragraph(&format!(
         "{trials} trials x {VIEWS} views, rendered once per trial at {}x{} (wrist lens, \
