@@ -5,8 +5,9 @@
 //! prior (refined by the panoramic finder and then measured by the wrist camera), the rod
 //! rack, the calibration target (a richly textured cabinet face the wrist camera can see at
 //! 0.3-0.6 m from the working spot) and the fixed obstacles the arm and the rod must clear.
-//! [`SiteMap::default_bay`] is the simulator's default bay (`sim::scene::substation`; control
-//! never depends on sim: `tests/site_map.rs` in the root package checks that the two agree).
+//! [`SiteMap::default_bay`] is a hand-kept copy of the simulator's default bay
+//! (`sim::scene::substation`; control never depends on sim): the robot knows that bay by
+//! heart, which a surveyed site file is to replace.
 //!
 //! Everything the robot measures (the wire's pose, the handle's pose) comes from its sensors;
 //! the map only says where to look and what not to touch.
