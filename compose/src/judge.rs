@@ -98,8 +98,9 @@ pub struct Verdict {
     pub operation_s: Option<f64>,
     /// Final `/sim/rod_state`.
     pub rod_state: String,
-    /// Whether the rod ended where the task wanted it (hang: clamped on the wire inside the
-    /// window; remove: on the rack).
+    /// Whether the task succeeded: it ended done, no command was unsafe, and the rod ended
+    /// where the task wanted it (hang: clamped on the wire inside the window; remove: on the
+    /// rack).
     pub success: bool,
     /// Final hook offset (when the rod is on the wire).
     pub hook: Option<HookError>,
@@ -727,7 +728,9 @@ pub fn judge(path: &std::path::Path) -> Result<Verdict, ComposeError> {
             window_fraction: offset.window_fraction(&HookTolerance::DESIGN),
         });
     }
+    // A run that sent an unsafe command is no success, whatever the rod's end.
     verdict.success = verdict.outcome == "done"
+        && verdict.unsafe_commands.is_empty()
         && match verdict.task.as_deref() {
             Some("hang") => {
                 verdict.rod_state == "clamped"

@@ -201,7 +201,8 @@ pub struct GroupSummary {
     pub condition: String,
     /// Runs.
     pub runs: usize,
-    /// Runs that ended DONE with the rod where the task wanted it (judged with truth).
+    /// Runs that ended DONE with the rod where the task wanted it and no unsafe command
+    /// (judged with truth).
     pub success: usize,
     /// Runs the robot refused (a safety gate or an unverifiable state), by the robot's word.
     pub refused: usize,
