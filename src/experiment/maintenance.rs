@@ -55,6 +55,8 @@ pub struct BinResult {
     pub cannot_tell: usize,
     /// `drifted / runs` (the detection rate; for the unbumped bin, the false-alarm rate).
     pub rate: f64,
+    /// Wilson 95% interval of `rate` ([`super::stats::wilson_95`]).
+    pub rate_95: (f64, f64),
     /// Whether the bin is one the goal applies to (>= 0.5 deg or >= 3 mm).
     pub goal_applies: bool,
 }
@@ -118,6 +120,7 @@ pub fn run(settings: &Settings) -> Result<()> {
             } else {
                 r.drifted as f64 / r.runs as f64
             };
+            r.rate_95 = super::stats::wilson_95(r.drifted, r.runs);
             r
         })
         .collect();
@@ -137,6 +140,7 @@ pub fn run(settings: &Settings) -> Result<()> {
         "consistent",
         "cannot tell",
         "rate",
+        "95% interval (Wilson)",
         "goal",
     ]);
     for b in &bins {
@@ -162,6 +166,7 @@ pub fn run(settings: &Settings) -> Result<()> {
             b.consistent.to_string(),
             b.cannot_tell.to_string(),
             fmt_pct(b.rate, 0),
+            format!("{} - {}", fmt_pct(b.rate_95.0, 0), fmt_pct(b.rate_95.1, 0)),
             goal.to_owned(),
         ]);
     }

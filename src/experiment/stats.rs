@@ -40,6 +40,31 @@ pub struct Summary {
     pub max: f64,
 }
 
+/// The Wilson score interval of a success rate at 95% (Wilson 1927; Brown, Cai & DasGupta
+/// 2001 recommend it over the normal approximation for small `n` and rates near 0 or 1):
+///
+/// ```text
+/// p = k / n,  z = 1.96
+/// centre = (p + z^2 / 2n) / (1 + z^2 / n)
+/// half   = z sqrt(p (1 - p) / n + z^2 / 4n^2) / (1 + z^2 / n)
+/// ```
+///
+/// `(centre - half, centre + half)`; `(NaN, NaN)` when `n == 0`.
+#[must_use]
+pub fn wilson_95(successes: usize, n: usize) -> (f64, f64) {
+    if n == 0 {
+        return (f64::NAN, f64::NAN);
+    }
+    const Z: f64 = 1.959_963_984_540_054;
+    let (k, n) = (successes.min(n) as f64, n as f64);
+    let p = k / n;
+    let z2 = Z * Z;
+    let denominator = 1.0 + z2 / n;
+    let centre = (p + z2 / (2.0 * n)) / denominator;
+    let half = Z * (p * (1.0 - p) / n + z2 / (4.0 * n * n)).sqrt() / denominator;
+    ((centre - half).max(0.0), (centre + half).min(1.0))
+}
+
 /// Quantile `p` in `[0, 1]` of the ascending `sorted` slice (module docs); NaN when empty.
 pub fn quantile_sorted(sorted: &[f64], p: f64) -> f64 {
     let Some(&last) = sorted.last() else {
@@ -175,6 +200,24 @@ impl RefusalCounter {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn wilson_interval_matches_an_independent_evaluation() {
+        // The formula evaluated independently (Python, z = 1.959964), rounded to 4 places.
+        let (lo, hi) = wilson_95(98, 100);
+        assert!(
+            (lo - 0.9300).abs() < 1e-4 && (hi - 0.9945).abs() < 1e-4,
+            "{lo} {hi}"
+        );
+        let (lo, hi) = wilson_95(0, 20);
+        assert!(lo == 0.0 && (hi - 0.1611).abs() < 1e-4, "{lo} {hi}");
+        let (lo, hi) = wilson_95(6, 10);
+        assert!(
+            (lo - 0.3127).abs() < 1e-4 && (hi - 0.8318).abs() < 1e-4,
+            "{lo} {hi}"
+        );
+        assert!(wilson_95(0, 0).0.is_nan());
+    }
 
     #[test]
     fn summary_matches_numpy_and_ignores_order() {

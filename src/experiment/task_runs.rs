@@ -212,6 +212,8 @@ pub struct GroupSummary {
     pub unsafe_commands: usize,
     /// `success / runs`.
     pub success_rate: f64,
+    /// Wilson 95% interval of `success_rate` ([`super::stats::wilson_95`]).
+    pub success_rate_95: (f64, f64),
     /// Median operation time of the successful runs (s).
     pub median_s: f64,
     /// Longest operation time of any run that ended (s).
@@ -317,6 +319,7 @@ pub fn summarize(condition: &str, runs: &[&RunResult]) -> GroupSummary {
     } else {
         g.success as f64 / g.runs as f64
     };
+    g.success_rate_95 = super::stats::wilson_95(g.success, g.runs);
     g.median_s = super::stats::Summary::of(&times).median;
     g.median_hook_fraction = super::stats::Summary::of(&hooks).median;
     g
@@ -331,6 +334,7 @@ pub fn outcome_table(first_column: &str, groups: &[GroupSummary]) -> super::repo
         "runs",
         "success",
         "rate",
+        "95% interval (Wilson)",
         "refused",
         "failed",
         "unsafe",
@@ -346,6 +350,11 @@ pub fn outcome_table(first_column: &str, groups: &[GroupSummary]) -> super::repo
             g.runs.to_string(),
             g.success.to_string(),
             fmt_pct(g.success_rate, 0),
+            format!(
+                "{} - {}",
+                fmt_pct(g.success_rate_95.0, 0),
+                fmt_pct(g.success_rate_95.1, 0)
+            ),
             g.refused.to_string(),
             g.failed.to_string(),
             g.unsafe_commands.to_string(),
