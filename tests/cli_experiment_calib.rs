@@ -28,7 +28,7 @@ fn run_experiment(name: &str, out: &Path) -> serde_json::Value {
     );
     let report = std::fs::read_to_string(out.join("report.md")).expect("report.md");
     assert!(
-        report.contains("ours-rgbd") && report.contains("zhi"),
+        report.contains("paper") && report.contains("ours-rgbd") && report.contains("zhi"),
         "{report}"
     );
     let results: serde_json::Value =
@@ -57,8 +57,8 @@ fn check_cells(cells: &serde_json::Value, expected: usize) {
 fn calibration_experiments_smoke_runs() {
     let tmp = tempfile::tempdir().expect("tempdir");
     let noise = run_experiment("noise", &tmp.path().join("noise"));
-    // 6 noise levels x 4 methods (ours-rgbd, ours-mono, ours-mono-unchecked, zhi).
-    check_cells(&noise["sections"]["cells"], 24);
+    // 6 noise levels x 5 methods (paper, ours-rgbd, ours-mono, ours-mono-unchecked, zhi).
+    check_cells(&noise["sections"]["cells"], 30);
     for stem in ["noise_e_r", "noise_e_t"] {
         for ext in ["png", "svg"] {
             let p = tmp.path().join("noise/plots").join(format!("{stem}.{ext}"));
@@ -66,14 +66,67 @@ fn calibration_experiments_smoke_runs() {
         }
     }
     let motions = run_experiment("motions", &tmp.path().join("motions"));
-    // 12..=18 motions x 4 methods.
-    check_cells(&motions["sections"]["cells"], 28);
+    // 12..=18 motions x 5 methods.
+    check_cells(&motions["sections"]["cells"], 35);
     assert!(
         tmp.path()
             .join("motions/plots/motions_median_e_t.png")
             .is_file()
     );
     let datasets = run_experiment("datasets", &tmp.path().join("datasets"));
-    check_cells(&datasets["sections"]["simulator"], 4);
+    check_cells(&datasets["sections"]["simulator"], 5);
     assert!(datasets["sections"]["paper_improvement"].is_array());
+}
+
+/// The paper's claim at this test's small scale: on four seeded simulator trials (18 views
+/// each, 320x256, no added noise), the paper's method and ours (RGB-D) each beat ZHI on the
+/// mean e_t and the mean e_R, every method answering on every trial. The margins are printed.
+#[test]
+fn paper_and_ours_each_beat_zhi_on_the_seeded_simulator_set() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("datasets");
+    let out_s = out.display().to_string();
+    let run = Command::new(env!("CARGO_BIN_EXE_rodlog"))
+        .args([
+            "experiment",
+            "datasets",
+            "--trials",
+            "4",
+            "--image-scale",
+            "0.5",
+            "--no-reference",
+            "--out",
+            &out_s,
+        ])
+        .output()
+        .expect("run rodlog");
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let results: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).expect("json"))
+            .expect("results.json parses");
+    let rows = results["sections"]["simulator"]
+        .as_array()
+        .expect("simulator rows");
+    let mean = |method: &str, key: &str| -> f64 {
+        let row = rows
+            .iter()
+            .find(|r| r["method"] == method)
+            .unwrap_or_else(|| panic!("no {method} row"));
+        assert_eq!(row["refused"], 0, "{method} refused a trial");
+        row[key]["mean"].as_f64().expect("mean")
+    };
+    let (zhi_t, zhi_r) = (mean("zhi", "e_t_mm"), mean("zhi", "e_r"));
+    for method in ["paper", "ours-rgbd"] {
+        let (t, r) = (mean(method, "e_t_mm"), mean(method, "e_r"));
+        eprintln!(
+            "{method}: mean e_t {t:.2} mm vs ZHI {zhi_t:.2} mm (better by {:.1} %), mean e_R {r:.5} vs ZHI {zhi_r:.5} (better by {:.1} %)",
+            100.0 * (zhi_t - t) / zhi_t,
+            100.0 * (zhi_r - r) / zhi_r
+        );
+        assert!(t < zhi_t && r < zhi_r, "{method} does not beat ZHI");
+    }
 }
