@@ -1,10 +1,11 @@
 //! `rodlog experiment motions` (ARCHITECTURE.md section 7, the paper's Fig. 14): hand-eye
-//! error against the number of motions (views), 12..18, ours vs ZHI.
+//! error against the number of motions (views), 12..18, the paper's method and ours vs ZHI.
 //!
 //! Protocol: the trials of [`super::noise`] ([`super::noise::render_trial`]: 18 seeded views
 //! per trial, rendered once); condition `k` calibrates from the first `k` views of each
-//! trial, with a fixed image noise of [`NOISE_SIGMA`] on [0, 1] intensities (the same noise
-//! realisation for every `k`, so the conditions differ only by the views used). Methods,
+//! trial, with a fixed image noise of [`NOISE_SIGMA`] on [0, 1] intensities and the depth
+//! noise that goes with it in [`super::noise`] (the same noise realisation for every `k`, so
+//! the conditions differ only by the views used). Methods,
 //! errors and refusals as in [`super::noise`]. Paper: errors stabilise from 16 motions.
 
 use anyhow::Result;

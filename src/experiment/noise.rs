@@ -15,7 +15,11 @@
 //! colour has the wrist sensor's own shot/read noise and auto-exposure; depth its noise and
 //! holes. The 18 views of a trial are rendered once and reused at every noise level; the
 //! noise of level `sigma` is `N(0, sigma)` on [0, 1] intensities added to every colour
-//! channel and clamped (seeded by trial and level), before the grey conversion.
+//! channel and clamped (seeded by trial and level), before the grey conversion, and
+//! `N(0, (DEPTH_NOISE_PER_SIGMA_M sigma (z / 0.5 m)^2)^2)` is added to every valid depth
+//! pixel (the structured-light z^2 model, ARCHITECTURE.md section 6: 0.1 mm at 0.5 m for
+//! sigma 0.05, the wrist sensor's own level, 0.6 mm for sigma 0.30), on top of the sensor's
+//! own noise already in the render.
 //!
 //! Methods: `paper` (the paper's method step by step, [`calib::selfcal::SelfCalMethod::Paper`]:
 //! ORB with the quadtree, GMS, RGB-D pair motions, Kronecker/SVD, LM on eq. 15 over the
@@ -78,11 +82,18 @@ pub const METHODS: [&str; 5] = [
     "zhi",
 ];
 
+/// Depth noise added per unit of image noise: its 1-sigma at [`DEPTH_NOISE_REF_M`], metres
+/// (module docs).
+pub const DEPTH_NOISE_PER_SIGMA_M: f64 = 2e-3;
+/// Reference depth of the depth noise, metres.
+pub const DEPTH_NOISE_REF_M: f64 = 0.5;
+
 const STREAM_MOUNT: u64 = 21;
 const STREAM_VIEW: u64 = 22;
 const STREAM_ENCODER: u64 = 23;
 const STREAM_NOISE: u64 = 24;
 const STREAM_RENDER: u64 = 25;
+const STREAM_DEPTH_NOISE: u64 = 26;
 
 /// The simulated world every trial shares.
 pub struct SimContext {
@@ -291,10 +302,25 @@ pub fn calib_views(
                 }
             }
             let img = image::RgbImage::from_raw(w, h, rgb).context("render buffer size")?;
+            let depth_m = depth.then(|| {
+                let mut d = v.depth_m.clone();
+                let s_ref = DEPTH_NOISE_PER_SIGMA_M * sigma;
+                if s_ref > 0.0 {
+                    let seed = sim::rng::key(noise_seed, STREAM_DEPTH_NOISE, i as u64);
+                    for (k, z) in d.iter_mut().enumerate() {
+                        if z.is_finite() && *z > 0.0 {
+                            let zf = f64::from(*z);
+                            let s = s_ref * (zf / DEPTH_NOISE_REF_M).powi(2);
+                            *z = (zf + s * sim::rng::normal(seed, 0, k as u64)) as f32;
+                        }
+                    }
+                }
+                d
+            });
             Ok(CalibView {
                 stamp_ns: (i as u64 + 1) * 1_000_000_000,
                 gray: calib::features::gray::rgb_to_gray(&img),
-                depth_m: depth.then(|| v.depth_m.clone()),
+                depth_m,
                 base_from_tool0: v.base_from_tool0,
             })
         })
@@ -665,13 +691,16 @@ pub fn run(settings: &Settings) -> Result<()> {
     report.paragraph(&format!(
         "{trials} trials x {VIEWS} views, rendered once per trial at {}x{} (wrist lens, \
          field of view kept) and reused at every noise level; Gaussian noise sigma on [0, 1] \
-         intensities added to the colour images. Methods: the paper's method step by step \
+         intensities added to the colour images, and depth noise of {:.1} mm x sigma / 0.05 at \
+         0.5 m (growing with z^2) to the depth images. Methods: the paper's method step by step \
          (paper: ORB quadtree, GMS, RGB-D motions, Kronecker/SVD, LM on eq. 15), ours with \
          depth (ours-rgbd), ours monocular (ours-mono; ours-mono-unchecked: its X also where the consistency check \
          refused it), ZHI (SIFT + SfM + scale-free SVD, colour only). Errors \
          against the simulator's true mount; refusals counted per cell and left out of its \
          statistics. Paper (Fig. 13): ours smaller and tighter than ZHI at every level.",
-        ctx.camera.width, ctx.camera.height
+        ctx.camera.width,
+        ctx.camera.height,
+        DEPTH_NOISE_PER_SIGMA_M * 0.05 * 1e3
     ));
     let (table, rows) = error_table(&conditions, &cells, &refusals, "noise");
     report.table(&table);
@@ -693,6 +722,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     results.parameter("views", VIEWS)?;
     results.parameter("orb_distribution", settings.orb_distribution.name())?;
     results.parameter("noise_sigmas", NOISE_SIGMAS)?;
+    results.parameter("depth_noise_per_sigma_m", DEPTH_NOISE_PER_SIGMA_M)?;
     results.parameter("width", ctx.camera.width)?;
     results.parameter("height", ctx.camera.height)?;
     results.section("cells", &rows)?;
