@@ -29,8 +29,8 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::noise::{
-    Cell, METHODS, SimContext, TrialRecord, VIEWS, book_trials, box_plots, error_table,
-    ours_params, refusal_table, render_trial, run_methods,
+    Cell, METHODS, SimContext, TrialRecord, VIEWS, all_answered, all_answered_table, book_trials,
+    box_plots, error_table, ours_params, refusal_table, render_trial, run_methods,
 };
 use super::progress::Progress;
 use super::report::{Report, Results, Table, fmt_num, fmt_pct};
@@ -179,6 +179,11 @@ pub fn run(settings: &Settings) -> Result<()> {
     ));
     let (table, rows) = error_table(&conditions, &cells, &refusals, "dataset");
     report.table(&table);
+    let (common, common_trials) = all_answered(&records, &conditions);
+    let (common_table, common_rows) =
+        all_answered_table(&conditions, &common, &common_trials, "dataset");
+    report.paragraph("Over the trials every method answered:");
+    report.table(&common_table);
     let mean_of = |m: usize, f: fn(&Cell) -> &Vec<f64>| -> f64 {
         cells
             .first()
@@ -289,6 +294,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     results.parameter("width", ctx.camera.width)?;
     results.parameter("height", ctx.camera.height)?;
     results.section("simulator", &rows)?;
+    results.section("simulator_all_answered", &common_rows)?;
     results.section("simulator_improvement", &improvements)?;
     results.section("paper_improvement", PAPER)?;
     results.section("refusals", &refusals)?;

@@ -12,7 +12,8 @@ use anyhow::Result;
 
 use super::Settings;
 use super::noise::{
-    METHODS, SimContext, VIEWS, book_trials, box_plots, error_table, refusal_table, run_trials,
+    METHODS, SimContext, VIEWS, all_answered, all_answered_table, book_trials, box_plots,
+    error_table, refusal_table, run_trials,
 };
 use super::report::{Report, Results};
 use super::stats::Summary;
@@ -60,6 +61,11 @@ pub fn run(settings: &Settings) -> Result<()> {
     ));
     let (table, rows) = error_table(&conditions, &cells, &refusals, "motions");
     report.table(&table);
+    let (common, common_trials) = all_answered(&records, &conditions);
+    let (common_table, common_rows) =
+        all_answered_table(&conditions, &common, &common_trials, "motions");
+    report.heading("Over the trials every method answered");
+    report.table(&common_table);
     box_plots(
         settings,
         &mut report,
@@ -106,6 +112,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     results.parameter("width", ctx.camera.width)?;
     results.parameter("height", ctx.camera.height)?;
     results.section("cells", &rows)?;
+    results.section("cells_all_answered", &common_rows)?;
     results.section("refusals", &refusals)?;
     report.write(settings.out.root())?;
     settings.write_results(&results)?;

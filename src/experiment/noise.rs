@@ -384,6 +384,79 @@ pub fn book_trials(
     (cells, refusals, seeds)
 }
 
+/// The errors of every method over the trials where every method answered, per condition
+/// (`cells[c][m]`), and how many such trials each condition has: the like-for-like
+/// comparison beside each method's statistics over its own accepted trials.
+#[must_use]
+pub fn all_answered(
+    records: &[TrialRecord],
+    conditions: &[String],
+) -> (Vec<Vec<Cell>>, Vec<usize>) {
+    let mut cells = vec![vec![Cell::default(); METHODS.len()]; conditions.len()];
+    let mut trials = vec![0; conditions.len()];
+    for r in records {
+        for (c, outcomes) in r.outcomes.iter().enumerate().take(conditions.len()) {
+            if outcomes.len() != METHODS.len() || outcomes.iter().any(|(_, o)| o.is_err()) {
+                continue;
+            }
+            trials[c] += 1;
+            for (m, (_, o)) in outcomes.iter().enumerate() {
+                if let (Ok(e), Some(cell)) = (o, cells[c].get_mut(m)) {
+                    cell.push(e);
+                }
+            }
+        }
+    }
+    (cells, trials)
+}
+
+/// The table of [`all_answered`]: mean and median errors per condition and method over the
+/// trials every method answered, and those trials' count.
+#[must_use]
+pub fn all_answered_table(
+    conditions: &[String],
+    cells: &[Vec<Cell>],
+    trials: &[usize],
+    condition_header: &str,
+) -> (Table, Vec<serde_json::Value>) {
+    let mut table = Table::new(&[
+        condition_header,
+        "trials all answered",
+        "method",
+        "e_R mean",
+        "e_R median",
+        "e_t mm mean",
+        "e_t mm median",
+    ]);
+    let mut rows = Vec::new();
+    for (c, cond) in conditions.iter().enumerate() {
+        let n = trials.get(c).copied().unwrap_or(0);
+        for (m, method) in METHODS.iter().enumerate() {
+            let Some(cell) = cells.get(c).and_then(|v| v.get(m)) else {
+                continue;
+            };
+            let (er, et) = (Summary::of(&cell.e_r), Summary::of(&cell.e_t_mm));
+            table.row(vec![
+                cond.clone(),
+                n.to_string(),
+                (*method).to_owned(),
+                fmt_num(er.mean, 5),
+                fmt_num(er.median, 5),
+                fmt_num(et.mean, 2),
+                fmt_num(et.median, 2),
+            ]);
+            rows.push(serde_json::json!({
+                "condition": cond,
+                "method": method,
+                "trials": n,
+                "e_r": er,
+                "e_t_mm": et,
+            }));
+        }
+    }
+    (table, rows)
+}
+
 /// Runs the trials of `settings.mode` (all, one shard's, none when merging): each renders its
 /// [`VIEWS`] views once and runs the methods under each of `conditions` conditions, where
 /// `condition(seed, c)` gives the views used, the noise sigma and the noise seed. `stream`
@@ -704,6 +777,11 @@ pub fn run(settings: &Settings) -> Result<()> {
     ));
     let (table, rows) = error_table(&conditions, &cells, &refusals, "noise");
     report.table(&table);
+    let (common, common_trials) = all_answered(&records, &conditions);
+    let (common_table, common_rows) =
+        all_answered_table(&conditions, &common, &common_trials, "noise");
+    report.heading("Over the trials every method answered");
+    report.table(&common_table);
     box_plots(
         settings,
         &mut report,
@@ -726,6 +804,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     results.parameter("width", ctx.camera.width)?;
     results.parameter("height", ctx.camera.height)?;
     results.section("cells", &rows)?;
+    results.section("cells_all_answered", &common_rows)?;
     results.section("refusals", &refusals)?;
     report.write(settings.out.root())?;
     settings.write_results(&results)?;
@@ -734,4 +813,57 @@ pub fn run(settings: &Settings) -> Result<()> {
         settings.out.root().join("report.md").display()
     ))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn outcomes(answers: [Option<f64>; METHODS.len()]) -> MethodOutcomes {
+        METHODS
+            .iter()
+            .zip(answers)
+            .map(|(m, a)| {
+                let o = a
+                    .map(|e_t_mm| PoseErrors {
+                        e_r: 0.001,
+                        theta_deg: 0.05,
+                        e_t_mm,
+                    })
+                    .ok_or_else(|| "refused".to_owned());
+                ((*m).to_owned(), o)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn all_answered_keeps_only_the_trials_every_method_answered() {
+        let conditions = vec!["a".to_owned()];
+        let records = vec![
+            TrialRecord {
+                seed: 1,
+                outcomes: vec![outcomes([
+                    Some(1.0),
+                    Some(2.0),
+                    Some(3.0),
+                    Some(3.0),
+                    Some(4.0),
+                ])],
+            },
+            TrialRecord {
+                seed: 2,
+                outcomes: vec![outcomes([Some(5.0), Some(6.0), None, Some(7.0), Some(8.0)])],
+            },
+        ];
+        let (cells, trials) = all_answered(&records, &conditions);
+        assert_eq!(trials, [1]);
+        assert_eq!(cells[0][0].e_t_mm, [1.0]);
+        assert_eq!(cells[0][4].e_t_mm, [4.0]);
+        // Each method over its own accepted trials keeps the second trial too.
+        let (own, refusals, seeds) = book_trials(&records, &conditions);
+        assert_eq!(own[0][0].e_t_mm, [1.0, 5.0]);
+        assert!(own[0][2].e_t_mm == [3.0]);
+        assert_eq!(refusals.total_refused(), 1);
+        assert_eq!(seeds, [1, 2]);
+    }
 }
