@@ -130,3 +130,51 @@ fn paper_and_ours_each_beat_zhi_on_the_seeded_simulator_set() {
         assert!(t < zhi_t && r < zhi_r, "{method} does not beat ZHI");
     }
 }
+
+/// The ablation runs every variant on the same trials, from the paper's method to ours, with
+/// paper+ba beside them, and reports refusals, Wilson intervals and both kinds of statistics.
+#[test]
+fn ablation_smoke_run_goes_from_the_paper_to_ours() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let out = tmp.path().join("ablation");
+    let out_s = out.display().to_string();
+    let run = Command::new(env!("CARGO_BIN_EXE_rodlog"))
+        .args([
+            "experiment",
+            "ablation",
+            "--trials",
+            "2",
+            "--image-scale",
+            "0.3",
+            "--out",
+            &out_s,
+        ])
+        .output()
+        .expect("run rodlog");
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let results: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).expect("json"))
+            .expect("results.json parses");
+    let variants = results["sections"]["variants"]
+        .as_array()
+        .expect("variants");
+    let names: Vec<&str> = variants
+        .iter()
+        .map(|v| v["variant"].as_str().expect("name"))
+        .collect();
+    assert_eq!(names.first(), Some(&"paper"), "{names:?}");
+    assert!(names.iter().any(|n| n.ends_with("(= ours)")), "{names:?}");
+    assert_eq!(names.last(), Some(&"paper+ba"), "{names:?}");
+    for v in variants {
+        assert_eq!(v["trials"], 2, "{v}");
+        let answered = v["answered"].as_u64().expect("answered");
+        let refused = v["refusals"].as_array().map_or(99, Vec::len) as u64;
+        assert_eq!(answered + refused, 2, "{v}");
+    }
+    let report = std::fs::read_to_string(out.join("report.md")).expect("report");
+    assert!(report.contains("Wilson") && report.contains("all answered"));
+}

@@ -25,6 +25,8 @@ pub enum ExperimentName {
     Motions,
     /// Simulator and shecar datasets, ours vs ZHI.
     Datasets,
+    /// From the paper's method to ours, one step at a time, on the same trials.
+    Ablation,
     /// Hang and remove after a camera-mount bump, with and without self-calibration.
     Tasks,
     /// Task success and time by hour of day.
@@ -45,6 +47,7 @@ impl ExperimentName {
             ExperimentName::Noise => "noise",
             ExperimentName::Motions => "motions",
             ExperimentName::Datasets => "datasets",
+            ExperimentName::Ablation => "ablation",
             ExperimentName::Tasks => "tasks",
             ExperimentName::Light => "light",
             ExperimentName::Wind => "wind",
@@ -173,6 +176,7 @@ fn run_named(
         ExperimentName::Noise => experiment::noise::run(&settings()?),
         ExperimentName::Motions => experiment::motions::run(&settings()?),
         ExperimentName::Datasets => experiment::datasets::run(&settings()?),
+        ExperimentName::Ablation => experiment::ablation::run(&settings()?),
         ExperimentName::Tasks => experiment::tasks::run(&settings()?),
         ExperimentName::Light => experiment::light::run(&settings()?),
         ExperimentName::Wind => experiment::wind::run(&settings()?),

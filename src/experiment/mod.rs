@@ -12,7 +12,8 @@
 //! - [`progress`]: [`progress::Progress`], an indicatif bar on stderr, hidden off a terminal.
 //! - Plots: `viz::plots` (box plots per condition and method, line plots, bar charts).
 //! - Experiments: [`matchers`] (feature matchers on pairs with known geometry), [`noise`],
-//!   [`motions`], [`datasets`] (hand-eye calibration, ours vs ZHI), [`tasks`],
+//!   [`motions`], [`datasets`] (hand-eye calibration: the paper, ours, ZHI), [`ablation`]
+//!   (from the paper's method to ours, one step at a time), [`tasks`],
 //!   [`light`], [`wind`], [`maintenance`] (the task experiments: simulated runs through the
 //!   recording pipeline, [`task_runs`], judged with the simulator's truth).
 //!
@@ -29,6 +30,7 @@
 //!
 //! Then add one arm to the `match` in `src/cmd/experiment.rs`.
 
+pub mod ablation;
 pub mod datasets;
 pub mod light;
 pub mod maintenance;

@@ -258,6 +258,33 @@ impl Steps {
     }
 }
 
+impl Steps {
+    /// Whether the step `name` ([`STEP_NAMES`]) is on; `eq15` is on when the final refinement
+    /// is [`FinalRefinement::Eq15`].
+    ///
+    /// # Errors
+    /// [`UnknownStep`] for a name not in [`STEP_NAMES`].
+    pub fn is_on(&self, name: &str) -> Result<bool, UnknownStep> {
+        Ok(match name {
+            "rigid-ransac" => self.rigid_ransac,
+            "depth-weighted-motion" => self.depth_weighted_motion,
+            "image-motion" => self.image_motion,
+            "pose-refinement" => self.pose_refinement,
+            "pair-rejection" => self.pair_rejection,
+            "angle-prior" => self.angle_prior,
+            "guided-round" => self.guided_round,
+            "epipolar-refinement" => self.epipolar_refinement,
+            "consistency" => self.consistency,
+            "eq15" => self.final_refinement == FinalRefinement::Eq15,
+            _ => {
+                return Err(UnknownStep {
+                    name: name.to_owned(),
+                });
+            }
+        })
+    }
+}
+
 impl Default for Steps {
     fn default() -> Self {
         Self::ours()
@@ -267,6 +294,18 @@ impl Default for Steps {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_step_reads_back_what_was_set() {
+        for name in STEP_NAMES {
+            for on in [false, true] {
+                let mut s = Steps::ours();
+                s.set(name, on).expect("known step");
+                assert_eq!(s.is_on(name), Ok(on), "{name}");
+            }
+        }
+        assert!(Steps::ours().is_on("nope").is_err());
+    }
 
     #[test]
     fn method_names_round_trip() {
