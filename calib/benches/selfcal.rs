@@ -1,12 +1,13 @@
 //! Self-calibration end to end (`calib::selfcal::self_calibrate`): synthetic RGB-D views of a
 //! textured plane with boxes through the wrist camera (1280x1024, f = 1745 px), 18 views
-//! (153 pairs); the budget is < 1 s wall on the 2-core machine. Also the per-stage
-//! parts (ORB on all views, matching + GMS over all pairs).
+//! (153 pairs), with ours, the paper's method and paper+ba side by side (the budget is < 1 s
+//! wall on the 2-core machine). Also the per-stage parts (ORB on all views, matching + GMS
+//! over all pairs).
 
 use std::hint::black_box;
 
-use calib::selfcal::SelfCalParams;
 use calib::selfcal::pairs::{candidate_pairs, extract_features, match_pair};
+use calib::selfcal::{SelfCalMethod, SelfCalParams};
 use criterion::{Criterion, criterion_group, criterion_main};
 use rayon::prelude::*;
 
@@ -21,9 +22,12 @@ fn bench(c: &mut Criterion) {
     let params = SelfCalParams::default();
     let mut g = c.benchmark_group("selfcal");
     g.sample_size(10);
-    g.bench_function("rgbd_18views_1280x1024", |b| {
-        b.iter(|| calib::selfcal::self_calibrate(black_box(&views), &cam, &params))
-    });
+    for method in [SelfCalMethod::Ours, SelfCalMethod::Paper, SelfCalMethod::PaperBa] {
+        let p = SelfCalParams::for_method(&cam, method);
+        g.bench_function(format!("{method}_rgbd_18views_1280x1024"), |b| {
+            b.iter(|| calib::selfcal::self_calibrate(black_box(&views), &cam, &p))
+        });
+    }
     g.bench_function("orb_18views_1280x1024", |b| {
         b.iter(|| extract_features(black_box(&views), &params))
     });
