@@ -22,7 +22,11 @@ fn bench(c: &mut Criterion) {
     let params = SelfCalParams::default();
     let mut g = c.benchmark_group("selfcal");
     g.sample_size(10);
-    for method in [SelfCalMethod::Ours, SelfCalMethod::Paper, SelfCalMethod::PaperBa] {
+    for method in [
+        SelfCalMethod::Ours,
+        SelfCalMethod::Paper,
+        SelfCalMethod::PaperBa,
+    ] {
         let p = SelfCalParams::for_method(&cam, method);
         g.bench_function(format!("{method}_rgbd_18views_1280x1024"), |b| {
             b.iter(|| calib::selfcal::self_calibrate(black_box(&views), &cam, &p))
