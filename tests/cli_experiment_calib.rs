@@ -1,39 +1,46 @@
-//! `rodlog experiment noise|motions|datasets` smoke runs: 2 trials at a low
-//! resolution write report.md, results.json with every cell (attempts and refusals counted,
-//! seeds recorded) and the box plots (PNG + SVG).
+//! `rodlog experiment noise|motions|datasets|ablation`: smoke runs at a low resolution (report.md,
+//! results.json with every cell: attempts and refusals counted, seeds recorded; the box
+//! plots), and the paper's claim against ZHI at this test's small scale.
 
 use std::path::Path;
 use std::process::Command;
 
-fn run_experiment(name: &str, out: &Path) -> serde_json::Value {
+/// Runs `rodlog experiment ARGS... --out OUT`, which must succeed, and returns its
+/// results.json.
+fn experiment_results(args: &[&str], out: &Path) -> serde_json::Value {
     let out_s = out.display().to_string();
     let run = Command::new(env!("CARGO_BIN_EXE_rodlog"))
-        .args([
-            "experiment",
+        .arg("experiment")
+        .args(args)
+        .args(["--out", &out_s])
+        .output()
+        .expect("run rodlog");
+    assert!(
+        run.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).expect("json"))
+        .expect("results.json parses")
+}
+
+fn run_experiment(name: &str, out: &Path) -> serde_json::Value {
+    let results = experiment_results(
+        &[
             name,
             "--trials",
             "2",
             "--image-scale",
             "0.3",
             "--no-reference",
-            "--out",
-            &out_s,
-        ])
-        .output()
-        .expect("run rodlog");
-    assert!(
-        run.status.success(),
-        "{name}: {}",
-        String::from_utf8_lossy(&run.stderr)
+        ],
+        out,
     );
     let report = std::fs::read_to_string(out.join("report.md")).expect("report.md");
     assert!(
         report.contains("paper") && report.contains("ours-rgbd") && report.contains("zhi"),
         "{report}"
     );
-    let results: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).expect("json"))
-            .expect("results.json parses");
     assert_eq!(results["experiment"], name);
     assert_eq!(results["seeds"].as_array().map(Vec::len), Some(2));
     // Ours ran with the paper's keypoint distribution, and results.json says so.
@@ -84,30 +91,17 @@ fn calibration_experiments_smoke_runs() {
 #[test]
 fn paper_and_ours_each_beat_zhi_on_the_seeded_simulator_set() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let out = dir.path().join("datasets");
-    let out_s = out.display().to_string();
-    let run = Command::new(env!("CARGO_BIN_EXE_rodlog"))
-        .args([
-            "experiment",
+    let results = experiment_results(
+        &[
             "datasets",
             "--trials",
             "4",
             "--image-scale",
             "0.5",
             "--no-reference",
-            "--out",
-            &out_s,
-        ])
-        .output()
-        .expect("run rodlog");
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+        ],
+        &dir.path().join("datasets"),
     );
-    let results: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).expect("json"))
-            .expect("results.json parses");
     let rows = results["sections"]["simulator"]
         .as_array()
         .expect("simulator rows");
@@ -137,28 +131,7 @@ fn paper_and_ours_each_beat_zhi_on_the_seeded_simulator_set() {
 fn ablation_smoke_run_goes_from_the_paper_to_ours() {
     let tmp = tempfile::tempdir().expect("tempdir");
     let out = tmp.path().join("ablation");
-    let out_s = out.display().to_string();
-    let run = Command::new(env!("CARGO_BIN_EXE_rodlog"))
-        .args([
-            "experiment",
-            "ablation",
-            "--trials",
-            "2",
-            "--image-scale",
-            "0.3",
-            "--out",
-            &out_s,
-        ])
-        .output()
-        .expect("run rodlog");
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
-    let results: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).expect("json"))
-            .expect("results.json parses");
+    let results = experiment_results(&["ablation", "--trials", "2", "--image-scale", "0.3"], &out);
     let variants = results["sections"]["variants"]
         .as_array()
         .expect("variants");

@@ -9,38 +9,16 @@
 use std::hint::black_box;
 use std::path::Path;
 
-use calib::features::command::{crop_resize, gray_from_encoded};
-use calib::features::synth::{textured_image, warp_homography};
 use calib::features::{Features, GrayBuf, OrbExtractor, OrbParams};
 use criterion::{Criterion, criterion_group, criterion_main};
-use nalgebra::Matrix3;
 
-/// An image file as grey (calib decodes; the file is read here).
-fn load_gray(path: &Path) -> Result<image::GrayImage, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    gray_from_encoded(&bytes).map_err(|e| format!("{}: {e}", path.display()))
-}
+#[path = "common/frames.rs"]
+mod frames;
 
-/// The bench frame A and its warp B (also saved as PNGs for the OpenCV script).
+/// The bench frame pair of the other benches, also saved as PNGs for the OpenCV script.
 pub fn bench_pair() -> (GrayBuf, GrayBuf) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let shecar = root.join("../shared/data/shecar/00.jpg");
-    let a = match load_gray(&shecar) {
-        Ok(full) => {
-            let img = crop_resize(&full, 1280, 1024);
-            GrayBuf {
-                data: img.into_raw(),
-                width: 1280,
-                height: 1024,
-            }
-        }
-        Err(e) => {
-            eprintln!("shecar frame unavailable ({e}); benchmarking a synthetic scene");
-            textured_image(1280, 1024, 1)
-        }
-    };
-    let hb = Matrix3::new(0.95, -0.12, 60.0, 0.10, 0.97, -20.0, 2e-5, -1e-5, 1.0);
-    let b = warp_homography(&a, &hb, 1280, 1024, 0).unwrap_or_else(|| a.clone());
+    let (a, b) = frames::frames();
     let dir = root.join("target/features-bench");
     if std::fs::create_dir_all(&dir).is_ok() {
         for (img, name) in [(&a, "a.png"), (&b, "b.png")] {

@@ -10,36 +10,21 @@
 //!   `RODLOG_REF_VENV`): keypoint count within 20% and repeatability under the warp at
 //!   least 90% of OpenCV's.
 
-use std::path::Path;
 use std::process::Command;
 
+#[path = "../benches/common/frames.rs"]
+mod frames;
+
 use calib::features::GrayBuf;
-use calib::features::command::{crop_resize, gray_from_encoded};
 use calib::features::sift::{
     SiftKeypoint, SiftMatchParams, SiftParams, detect_and_describe, match_l2_ratio,
 };
-use calib::features::synth::{apply_homography, similarity, textured_image, warp_homography};
+use calib::features::synth::{apply_homography, similarity, warp_homography};
 use nalgebra::Matrix3;
-
-/// An image file as grey (calib decodes; the file is read here).
-fn load_gray(path: &Path) -> Result<image::GrayImage, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    gray_from_encoded(&bytes).map_err(|e| format!("{}: {e}", path.display()))
-}
 
 /// A 640x512 crop of shecar 00 (or a synthetic scene).
 fn frame() -> GrayBuf {
-    match load_gray(&testkit::shared_data_dir().join("shecar/00.jpg")) {
-        Ok(full) => GrayBuf {
-            data: crop_resize(&full, 640, 512).into_raw(),
-            width: 640,
-            height: 512,
-        },
-        Err(e) => {
-            eprintln!("shecar unavailable ({e}); using a synthetic scene");
-            textured_image(640, 512, 7)
-        }
-    }
+    frames::shecar_or_synthetic(640, 512, 7)
 }
 
 fn warp() -> Matrix3<f64> {

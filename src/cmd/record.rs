@@ -134,16 +134,29 @@ pub fn record_plan(args: &RecordArgs) -> anyhow::Result<compose::Plan> {
     plan(scenario, args.seed, args.duration, &sets)
 }
 
-/// Runs `rodlog record`.
-pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
-    let plan = record_plan(args)?;
-    if plan.world_kind() == compose::WorldKind::Ros2 {
-        return super::record_ros2::run(args, &plan);
-    }
+/// Where a recording goes, the same for every world.
+pub(super) struct Outputs {
+    /// The file (`--out`, or `SCENARIO.mcap`).
+    pub out: PathBuf,
+    /// Its sink options (`--compression`).
+    pub sink: SinkOptions,
+    /// The extra sinks (`--viz`).
+    pub extra_sinks: Vec<Box<dyn recorder::Sink>>,
+}
+
+/// The [`Outputs`] of `args`.
+///
+/// # Errors
+/// An unknown compression; the Rerun file cannot be created.
+pub(super) fn outputs(args: &RecordArgs, plan: &compose::Plan) -> anyhow::Result<Outputs> {
     let out = args
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("{}.mcap", plan.scenario().name)));
+    let sink = SinkOptions {
+        compression: compression(&args.compression)?,
+        ..SinkOptions::default()
+    };
     let mut extra_sinks: Vec<Box<dyn recorder::Sink>> = Vec::new();
     if let Some(rrd) = &args.viz {
         extra_sinks.push(Box::new(super::view::VizSink::create(
@@ -151,12 +164,27 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
             &plan.header()?.metadata,
         )?));
     }
+    Ok(Outputs {
+        out,
+        sink,
+        extra_sinks,
+    })
+}
+
+/// Runs `rodlog record`.
+pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
+    let plan = record_plan(args)?;
+    if plan.world_kind() == compose::WorldKind::Ros2 {
+        return super::record_ros2::run(args, &plan);
+    }
+    let Outputs {
+        out,
+        sink,
+        extra_sinks,
+    } = outputs(args, &plan)?;
     let options = RecordOptions {
         out: out.clone(),
-        sink: SinkOptions {
-            compression: compression(&args.compression)?,
-            ..SinkOptions::default()
-        },
+        sink,
         realtime: args.realtime,
         threads: args.threads,
         stop: if args.until_done {

@@ -3,9 +3,9 @@
 
 use anyhow::Context as _;
 use compose::ros2::record::{Ros2RunOptions, record};
-use recorder::{RecordOptions, SinkOptions};
+use recorder::RecordOptions;
 
-use super::record::{RecordArgs, compression};
+use super::record::RecordArgs;
 
 /// Runs `rodlog record --ros2` for `plan` (world `ros2`).
 ///
@@ -21,23 +21,14 @@ pub fn run(args: &RecordArgs, plan: &compose::Plan) -> anyhow::Result<()> {
             plan.remote_keys().join(", ")
         );
     }
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| std::path::PathBuf::from(format!("{}.mcap", plan.scenario().name)));
-    let mut extra_sinks: Vec<Box<dyn recorder::Sink>> = Vec::new();
-    if let Some(rrd) = &args.viz {
-        extra_sinks.push(Box::new(super::view::VizSink::create(
-            rrd,
-            &plan.header()?.metadata,
-        )?));
-    }
+    let super::record::Outputs {
+        out,
+        sink,
+        extra_sinks,
+    } = super::record::outputs(args, plan)?;
     let options = RecordOptions {
         out: out.clone(),
-        sink: SinkOptions {
-            compression: compression(&args.compression)?,
-            ..SinkOptions::default()
-        },
+        sink,
         realtime: true,
         threads: args.threads,
         stop: None,

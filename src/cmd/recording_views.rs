@@ -13,19 +13,24 @@ use replay::{McapReader, ReadFilter};
 
 /// Reads the colour views (each with the hand pose at its stamp) and the camera model of a
 /// recording: calib's own reading of the calibration messages
-/// ([`calib::selfcal::views_from_messages`]), depth left out (a board needs none).
+/// ([`calib::selfcal::views_from_messages`]); depth is not read (a board needs none).
 ///
 /// # Errors
 /// Unreadable file, no camera info, unsupported distortion model or image encoding, an
 /// image whose hand pose cannot be looked up (the TF error says which edge or stamp).
 pub fn read_views(path: &Path) -> Result<(Vec<CalibView>, CameraModel)> {
-    let messages: Vec<(String, Msg)> = read_calibration_messages(path)?
-        .into_iter()
-        .filter(|(topic, _)| topic != topics::CAMERA_DEPTH_IMAGE)
-        .collect();
+    let messages = read_messages(path, &COLOUR_TOPICS)?;
     calib::selfcal::views_from_messages(&messages)
         .with_context(|| format!("{}: no calibration views", path.display()))
 }
+
+/// What a colour calibration reads: poses and colour images with their camera model.
+const COLOUR_TOPICS: [&str; 4] = [
+    topics::TF,
+    topics::TF_STATIC,
+    topics::CAMERA_COLOR_INFO,
+    topics::CAMERA_COLOR_IMAGE,
+];
 
 /// Every message self-calibration may read (images, depth, camera info, /tf, /tf_static),
 /// decoded, in log-time order. Ground truth (`/sim/...`) is never read.
@@ -33,15 +38,16 @@ pub fn read_views(path: &Path) -> Result<(Vec<CalibView>, CameraModel)> {
 /// # Errors
 /// Unreadable file or undecodable message.
 pub fn read_calibration_messages(path: &Path) -> Result<Vec<(String, Msg)>> {
+    let mut all = COLOUR_TOPICS.to_vec();
+    all.push(topics::CAMERA_DEPTH_IMAGE);
+    read_messages(path, &all)
+}
+
+/// The messages of `topics`, decoded, in log-time order.
+fn read_messages(path: &Path, topics: &[&str]) -> Result<Vec<(String, Msg)>> {
     let mut reader =
         McapReader::open(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let filter = ReadFilter::all().with_topics([
-        topics::TF.to_owned(),
-        topics::TF_STATIC.to_owned(),
-        topics::CAMERA_COLOR_INFO.to_owned(),
-        topics::CAMERA_COLOR_IMAGE.to_owned(),
-        topics::CAMERA_DEPTH_IMAGE.to_owned(),
-    ]);
+    let filter = ReadFilter::all().with_topics(topics.iter().map(|t| (*t).to_owned()));
     let mut out = Vec::new();
     for message in reader.messages(&filter) {
         let message = message?;

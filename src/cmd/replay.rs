@@ -3,8 +3,8 @@
 //! pipeline again.
 //!
 //! Several recordings (files, or folders of `.mcap` files) are replayed one after the other,
-//! in path order; `--shard K/N` takes the recordings `i` with `i mod N = K` of that order (a
-//! fleet's recordings checked on many machines). With several, a failure of one is reported
+//! in path order; `--shard K/N` takes hand K of the recordings dealt to N shards as an
+//! experiment's items are (`Shard::items_of`; a fleet's recordings checked on many machines). With several, a failure of one is reported
 //! and the others still run; the exit status fails when any failed.
 //!
 //! Parameters: the recording's `scenario` metadata, then `--config`, then `--set`.
@@ -28,7 +28,7 @@ pub struct ReplayArgs {
     /// The recordings (MCAP files, or folders of them).
     #[arg(required = true, value_name = "REC")]
     pub recs: Vec<PathBuf>,
-    /// Replay only shard K of N (0-based) of the recordings, in path order.
+    /// Replay only shard K of N (0-based) of the recordings (dealt as an experiment's items).
     #[arg(long, value_name = "K/N")]
     pub shard: Option<String>,
     /// Compare regenerated outputs with the recorded ones; exit 1 on divergence or when
@@ -95,11 +95,10 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<()> {
     let mut recs = recordings(&args.recs)?;
     if let Some(s) = &args.shard {
         let shard = crate::experiment::shard::Shard::parse(s)?;
-        recs = recs
+        let mine = shard.items_of(recs.len());
+        recs = mine
             .into_iter()
-            .enumerate()
-            .filter(|(i, _)| shard.owns(*i))
-            .map(|(_, r)| r)
+            .filter_map(|i| recs.get(i).cloned())
             .collect();
     }
     match recs.as_slice() {

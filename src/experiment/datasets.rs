@@ -6,7 +6,7 @@
 //!   and `theta` against the true mount per method; the improvement of ours over ZHI is
 //!   `(zhi - ours) / zhi` of the means. Paper: 25.8 % (`e_t`) and 17.3 % (`e_R`).
 //! - **Dataset 2, shecar** (ZHI's own sample, `../shared/data/shecar`, 18 phone photos,
-//!   monocular): images resized by [`SHECAR_SCALE`] x `--image-scale`; ours (mono) and ZHI.
+//!   monocular): images resized by [`crate::import::shecar::EXPERIMENT_SCALE`] x `--image-scale`; ours (mono) and ZHI.
 //!   There is no exact truth, so each X is scored by the residuals of `B_ij X = X A_ij` over
 //!   the 153 pairs `i < j` with a **common** set of eye motions `A_ij`: the chessboard
 //!   poses (6x8 inner corners, 28.3 mm squares, `calib::board`) of the two views. Rotation
@@ -39,10 +39,6 @@ use super::{Settings, trial_seed};
 
 /// Simulator trials when `--trials` is not given.
 pub const DEFAULT_TRIALS: usize = 100;
-/// Resize of the 3264x1836 shecar photos before `--image-scale` (1306x734).
-pub const SHECAR_SCALE: f64 = 0.4;
-/// Smallest resize (the board must stay detectable).
-pub const SHECAR_MIN_SCALE: f64 = 0.2;
 /// The paper's improvements of ours over ZHI: dataset 1 (e_t, e_R), dataset 2 (e_t, e_R).
 pub const PAPER: [(f64, f64); 2] = [(0.258, 0.173), (0.253, 0.246)];
 
@@ -310,24 +306,12 @@ pub fn run(settings: &Settings) -> Result<()> {
 type ShecarOut = (Vec<ShecarScore>, f64, CameraModel, usize);
 
 fn shecar_scores(settings: &Settings, progress: &Progress) -> Result<ShecarOut> {
-    let dir = compose::data::shecar_dir();
-    let dataset =
-        crate::import::shecar::read(&dir).with_context(|| format!("reading {}", dir.display()))?;
-    let scale = (SHECAR_SCALE * settings.image_scale).max(SHECAR_MIN_SCALE);
-    let c = &dataset.camera;
-    let (w, h) = (
-        (f64::from(c.width) * scale).round() as u32,
-        (f64::from(c.height) * scale).round() as u32,
-    );
-    let s = c.scaled(scale, w, h);
-    let camera = CameraModel {
-        k1: s.distortion[0],
-        k2: s.distortion[1],
-        p1: s.distortion[2],
-        p2: s.distortion[3],
-        k3: s.distortion[4],
-        ..CameraModel::pinhole(w, h, s.fx, s.fy, s.cx, s.cy)
-    };
+    let crate::import::shecar::Resized {
+        dataset,
+        scale,
+        camera,
+    } = crate::import::shecar::open_resized(&compose::data::shecar_dir(), settings.image_scale)?;
+    let (w, h) = (camera.width, camera.height);
     let views: Vec<CalibView> = dataset
         .views
         .par_iter()

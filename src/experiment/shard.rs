@@ -50,13 +50,6 @@ impl Shard {
         Ok(Self { index, count })
     }
 
-    /// Whether item `i` belongs to this shard when items are dealt plainly round robin
-    /// (`i mod N = K`; recordings in path order).
-    #[must_use]
-    pub fn owns(self, i: usize) -> bool {
-        i % self.count == self.index
-    }
-
     /// The items of an experiment of `items` items that this shard runs, ascending.
     ///
     /// The items are shuffled by a fixed Fisher-Yates permutation (SplitMix64 seeded with
@@ -331,13 +324,11 @@ mod tests {
     use super::*;
 
     #[test]
-    fn shards_parse_and_partition_round_robin() -> Result<()> {
+    fn shards_parse_and_deal_every_item_once() -> Result<()> {
         let s = Shard::parse("1/3")?;
         assert_eq!((s.index, s.count), (1, 3));
         assert!(Shard::parse("3/3").is_err() && Shard::parse("0/0").is_err());
         assert!(Shard::parse("x").is_err() && Shard::parse("1/").is_err());
-        let owned: Vec<usize> = (0..7).filter(|&i| s.owns(i)).collect();
-        assert_eq!(owned, [1, 4]);
         // Dealt items: every item once, near-equal hands, the same hands on every call.
         let hands: Vec<Vec<usize>> = (0..3)
             .map(|k| Shard { index: k, count: 3 }.items_of(7))

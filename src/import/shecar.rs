@@ -155,3 +155,49 @@ fn read_intrinsics(path: &Path, first_image: Option<&Path>) -> Result<Intrinsics
         distortion: [k1, k2, 0.0, 0.0, 0.0],
     })
 }
+
+/// Resize of the 3264x1836 shecar photos before `--image-scale` in the experiments (1306x734,
+/// about the wrist camera's 1280x1024 pixel count).
+pub const EXPERIMENT_SCALE: f64 = 0.4;
+/// Smallest resize in the experiments (the chessboard must stay detectable).
+pub const EXPERIMENT_MIN_SCALE: f64 = 0.2;
+
+/// The shecar dataset as the experiments use it: read from `dir`, with the photos' resize
+/// (`EXPERIMENT_SCALE x image_scale`, at least [`EXPERIMENT_MIN_SCALE`]) and calib's model of
+/// the camera at that size.
+pub struct Resized {
+    /// The dataset (full-size photos on disk).
+    pub dataset: Dataset,
+    /// The resize factor.
+    pub scale: f64,
+    /// The camera of the resized photos (plumb_bob kept).
+    pub camera: calib::relpose::CameraModel,
+}
+
+/// Reads shecar for an experiment run at `image_scale` (see [`Resized`]).
+///
+/// # Errors
+/// Those of [`read`].
+pub fn open_resized(dir: &Path, image_scale: f64) -> Result<Resized> {
+    let dataset = read(dir).with_context(|| format!("reading shecar at {}", dir.display()))?;
+    let scale = (EXPERIMENT_SCALE * image_scale).max(EXPERIMENT_MIN_SCALE);
+    let c = &dataset.camera;
+    let (w, h) = (
+        (f64::from(c.width) * scale).round() as u32,
+        (f64::from(c.height) * scale).round() as u32,
+    );
+    let s = c.scaled(scale, w, h);
+    let camera = calib::relpose::CameraModel {
+        k1: s.distortion[0],
+        k2: s.distortion[1],
+        p1: s.distortion[2],
+        p2: s.distortion[3],
+        k3: s.distortion[4],
+        ..calib::relpose::CameraModel::pinhole(w, h, s.fx, s.fy, s.cx, s.cy)
+    };
+    Ok(Resized {
+        dataset,
+        scale,
+        camera,
+    })
+}

@@ -16,7 +16,7 @@
 //!    of the 3x3 neighbourhood of A's keypoint (true if one of them passes). Keypoints with no
 //!    depth in that neighbourhood (sky) are not judged.
 //! 2. **shecar**: consecutive views `(i, i+1)` of ZHI's real sample (seeded choice), images
-//!    resized by [`SHECAR_SCALE`] x `--image-scale`. The only trustworthy geometry there is
+//!    resized by [`crate::import::shecar::EXPERIMENT_SCALE`] x `--image-scale`. The only trustworthy geometry there is
 //!    the chessboard: we detect its 6x8 inner corners in both images (`calib::board`),
 //!    undistort them with the dataset's intrinsics and fit the homographies board -> A and
 //!    board -> B (normalised DLT). A match whose A keypoint lies on the board (the inner
@@ -100,11 +100,6 @@ pub const SPREAD_GRID: usize = 8;
 pub const OCCLUSION_REL: f64 = 0.02;
 /// Occlusion test (sim): absolute depth tolerance, metres.
 pub const OCCLUSION_ABS_M: f64 = 0.005;
-/// Resize of the 3264x1836 shecar photos before `--image-scale` (-> 1306x734, about the
-/// wrist camera's 1280x1024 pixel count).
-pub const SHECAR_SCALE: f64 = 0.4;
-/// Smallest resize of the shecar photos (the board must stay detectable in smoke runs).
-pub const SHECAR_MIN_SCALE: f64 = 0.2;
 /// Scene seed of the simulated substation (the calib-18 scenario's).
 pub const SIM_SCENE_SEED: u64 = 18;
 /// Hour of day of the simulated pairs.

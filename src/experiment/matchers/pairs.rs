@@ -96,24 +96,14 @@ pub(super) struct Shecar {
 
 impl Shecar {
     pub(super) fn open(settings: &Settings) -> Result<Self> {
-        let dir = compose::data::shecar_dir();
-        let dataset = crate::import::shecar::read(&dir)
-            .with_context(|| format!("reading shecar at {}", dir.display()))?;
-        let scale = (SHECAR_SCALE * settings.image_scale).max(SHECAR_MIN_SCALE);
-        let c = &dataset.camera;
-        let (w, h) = (
-            (f64::from(c.width) * scale).round() as u32,
-            (f64::from(c.height) * scale).round() as u32,
-        );
-        let s = c.scaled(scale, w, h);
-        let camera = CameraModel {
-            k1: s.distortion[0],
-            k2: s.distortion[1],
-            p1: s.distortion[2],
-            p2: s.distortion[3],
-            k3: s.distortion[4],
-            ..CameraModel::pinhole(w, h, s.fx, s.fy, s.cx, s.cy)
-        };
+        let crate::import::shecar::Resized {
+            dataset,
+            scale,
+            camera,
+        } = crate::import::shecar::open_resized(
+            &compose::data::shecar_dir(),
+            settings.image_scale,
+        )?;
         Ok(Self {
             dataset,
             scale,
