@@ -705,6 +705,8 @@ pub fn box_plots(
                 .iter()
                 .map(|row| row.iter().map(|c| pick(c).clone()).collect())
                 .collect(),
+            // Errors span orders of magnitude (a refused-but-shown estimate can be metres off).
+            log_y: true,
         };
         let files =
             viz::plots::write_box_plot(&plot, &settings.out.plot_stem(&format!("{stem}_{suffix}")))

@@ -158,6 +158,7 @@ pub fn run(settings: &Settings) -> Result<()> {
         conditions: conditions.clone(),
         methods: vec!["time".into()],
         samples: times,
+        log_y: false,
     };
     let files = viz::plots::write_box_plot(&boxes, &settings.out.plot_stem("time"))?;
     report.image("operation time", &settings.out.relative(&files.png));

@@ -28,6 +28,7 @@
 //!     methods: vec!["ours".into(), "zhi".into()],
 //!     // samples[condition][method]
 //!     samples: vec![vec![vec![0.1, 0.2, 0.15], vec![0.3, 0.5]], vec![vec![0.2], vec![0.6, 0.7]]],
+//!     log_y: false,
 //! };
 //! let files = write_box_plot(&plot, std::path::Path::new("out/rot_err"))?;
 //! # Ok::<(), viz::plots::PlotError>(())
@@ -120,6 +121,9 @@ pub struct BoxPlot {
     pub methods: Vec<String>,
     /// `samples[condition][method]`: the samples (any order; non-finite ones ignored).
     pub samples: Vec<Vec<Vec<f64>>>,
+    /// A logarithmic y axis (for errors that span orders of magnitude: one diverged estimate
+    /// would flatten every other box on a linear axis); samples <= 0 are then ignored.
+    pub log_y: bool,
 }
 
 /// One line of a [`LinePlot`].
@@ -468,16 +472,38 @@ fn draw_category_labels<DB: DrawingBackend>(
     Ok(())
 }
 
+/// A y tick label in the samples' units for a log10 axis value.
+fn log_tick(v: f64) -> String {
+    let x = 10f64.powf(v);
+    if (1e-3..1e4).contains(&x.abs()) {
+        let s = format!("{x:.4}");
+        s.trim_end_matches('0').trim_end_matches('.').to_owned()
+    } else {
+        format!("{x:.0e}")
+    }
+}
+
 impl Draw for BoxPlot {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
         root.fill(&WHITE).map_err(msg)?;
-        let stats: Vec<Vec<Option<BoxStats>>> = self
-            .samples
+        // On a log axis every coordinate is log10 of the sample.
+        let samples: Vec<Vec<Vec<f64>>> = if self.log_y {
+            self.samples
+                .iter()
+                .map(|row| {
+                    row.iter()
+                        .map(|s| s.iter().filter(|x| **x > 0.0).map(|x| x.log10()).collect())
+                        .collect()
+                })
+                .collect()
+        } else {
+            self.samples.clone()
+        };
+        let stats: Vec<Vec<Option<BoxStats>>> = samples
             .iter()
             .map(|row| row.iter().map(|s| BoxStats::of(s)).collect())
             .collect();
-        let (lo, hi) = self
-            .samples
+        let (lo, hi) = samples
             .iter()
             .flatten()
             .flatten()
@@ -486,8 +512,20 @@ impl Draw for BoxPlot {
                 (l.min(x), h.max(x))
             });
         let xr = category_axis(self.conditions.len());
-        let yr = with_legend_room(padded(lo, hi, lo >= 0.0));
+        let yr = with_legend_room(padded(lo, hi, lo >= 0.0 && !self.log_y));
         let (labels, label_area) = category_labels(root, &self.conditions);
+        let y_desc = if self.log_y {
+            format!("{} (log scale)", self.y_label)
+        } else {
+            self.y_label.clone()
+        };
+        let y_tick = |v: &f64| {
+            if self.log_y {
+                log_tick(*v)
+            } else {
+                format!("{v}")
+            }
+        };
         let mut chart = ChartBuilder::on(root)
             .caption(&self.title, (FONT, 24))
             .margin(CHART_MARGIN)
@@ -500,7 +538,8 @@ impl Draw for BoxPlot {
             .max_light_lines(LIGHT_LINES)
             .disable_x_mesh()
             .x_desc(&self.x_label)
-            .y_desc(&self.y_label)
+            .y_desc(&y_desc)
+            .y_label_formatter(&y_tick)
             .x_labels(0)
             .label_style((FONT, 15))
             .axis_desc_style((FONT, 17))
@@ -532,8 +571,7 @@ impl Draw for BoxPlot {
                             .into_dyn(),
                     );
                 }
-                let samples = self
-                    .samples
+                let samples = samples
                     .get(i)
                     .and_then(|r| r.get(j))
                     .map(Vec::as_slice)
@@ -761,6 +799,7 @@ mod tests {
                 vec![vec![1.0, 2.0, 3.0, 9.0], vec![2.0]],
                 vec![vec![], vec![0.5, 0.7]],
             ],
+            log_y: false,
         };
         let f = write_box_plot(&plot, &dir.path().join("box")).expect("box");
         let img = image::open(&f.png).expect("png").to_rgb8();
@@ -801,6 +840,32 @@ mod tests {
             std::fs::read(&f.png).expect("read"),
             std::fs::read(&again.png).expect("read")
         );
+    }
+
+    #[test]
+    fn log_axis_keeps_small_boxes_visible_beside_a_diverged_sample() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let plot = BoxPlot {
+            title: "e_t".into(),
+            x_label: "sigma".into(),
+            y_label: "mm".into(),
+            conditions: vec!["a".into()],
+            methods: vec!["ours".into(), "diverged".into()],
+            samples: vec![vec![vec![0.5, 0.6, 0.7, 0.8], vec![1e9, 2e9, 0.0]]],
+            log_y: true,
+        };
+        let f = write_box_plot(&plot, &dir.path().join("log")).expect("box");
+        let svg = std::fs::read_to_string(&f.svg).expect("svg");
+        assert!(
+            svg.contains("(log scale)"),
+            "the axis says it is logarithmic"
+        );
+        // Ticks are in the samples' units: the small box's range and the diverged one's.
+        let texts: Vec<&str> = svg.lines().map(str::trim).collect();
+        assert!(texts.contains(&"1") && texts.contains(&"1e8"), "{texts:?}");
+        assert_eq!(log_tick(0.0), "1");
+        assert_eq!(log_tick(-2.0), "0.01");
+        assert_eq!(log_tick(9.0), "1e9");
     }
 
     #[test]

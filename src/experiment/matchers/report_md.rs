@@ -176,6 +176,7 @@ pub(super) fn write_report(
         conditions: categories.clone(),
         methods: methods.to_vec(),
         samples: samples(&|s| s.true_rate),
+        log_y: false,
     };
     let files = viz::plots::write_box_plot(&rate_box, &settings.out.plot_stem("true_rate_box"))?;
     r.image("true rate per pair", &settings.out.relative(&files.png));
@@ -186,6 +187,7 @@ pub(super) fn write_report(
         conditions: categories,
         methods: methods.to_vec(),
         samples: samples(&|s| s.time_ms),
+        log_y: false,
     };
     let files = viz::plots::write_box_plot(&time_box, &settings.out.plot_stem("time_box"))?;
     r.image("time per pair", &settings.out.relative(&files.png));
