@@ -295,7 +295,7 @@ fn self_calibration(args: &SelfArgs) -> Result<()> {
     let written = match &args.out {
         Some(out) => Some((
             out,
-            write_calibrated_recording(&args.rec, out, views.len(), args)?,
+            write_calibrated_recording(&args.rec, out, views.len(), method, args)?,
         )),
         None => None,
     };
@@ -349,6 +349,7 @@ fn write_calibrated_recording(
     rec: &std::path::Path,
     out: &std::path::Path,
     captures: usize,
+    method: calib::selfcal::SelfCalMethod,
     args: &SelfArgs,
 ) -> Result<u64> {
     use calib::selfcal::{CalibrationStage, CalibrationStageConfig};
@@ -365,7 +366,7 @@ fn write_calibrated_recording(
         let config = CalibrationStageConfig {
             captures_to_solve: captures,
             ignore_depth: args.mono,
-            method: args.method.parse().unwrap_or_default(),
+            method,
             orb_distribution: args.distribution.into(),
             ..CalibrationStageConfig::default()
         };
