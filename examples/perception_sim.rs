@@ -17,7 +17,7 @@
 //! 4. Render RGB-D (`render_rgbd_with_rays`, wrist sensor model) at an hour drawn from the
 //!    condition's range; turn the frame into `sensor_msgs/Image` (32FC1) and `CameraInfo`
 //!    through the camera driver's own functions (`sim::cameras`), and back through
-//!    `PinholeCamera::from_camera_info` / `DepthImage::from_image` (the message seam).
+//!    `CameraModel::from_camera_info` / `DepthImage::from_image` (the message seam).
 //! 5. ROI = the prior segment (±0.25 m) projected into the image with a margin;
 //!    `detect_wire` per capture, `estimate_wire` over the captures (map frame, poses
 //!    known), near point = the prior, robot point as in 3.
@@ -39,16 +39,16 @@
 use anyhow::Context as _;
 use control::perception::colour::LumaImage;
 use control::perception::confidence::ConfidenceThresholds;
-use control::perception::point_cloud::{DepthImage, PinholeCamera, RayTable};
+use control::perception::point_cloud::{CameraModel, DepthImage, RayTable};
 use control::perception::roi::{PixelRoi, wrist_look_pose};
 use control::perception::wire::{WireObservation, WireParams, detect_wire, estimate_wire};
 use control::perception::{PerceptionError, WIRE_RADIUS_M};
 use msgs::std_msgs::Header;
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use rng::SplitMix64;
-use sim::cameras::{camera_info, color_image, depth_image};
+use sim::cameras::{color_image, depth_image};
 use sim::config::DepthEncoding;
-use sim::render::{CameraIntrinsics, LightConditions, SensorParams, render_rgbd_with_rays};
+use sim::render::{LightConditions, SensorParams, render_rgbd_with_rays, wrist_camera};
 use sim::scene::substation::SubstationBuilder;
 
 /// Range of the height above the ground of the point the camera looks from (m), drawn per
@@ -123,7 +123,7 @@ pub const HARSH_SUN: Condition = Condition {
 #[derive(Debug, Clone)]
 pub struct Protocol {
     /// Wrist camera intrinsics (possibly scaled).
-    pub intrinsics: CameraIntrinsics,
+    pub intrinsics: CameraModel,
     /// Captures fused per estimate (2-3).
     pub captures: usize,
     /// Wire detection settings.
@@ -141,7 +141,7 @@ impl Protocol {
     /// Invalid scale.
     pub fn new(scale: f64) -> anyhow::Result<Self> {
         Ok(Self {
-            intrinsics: CameraIntrinsics::wrist().scaled(scale)?,
+            intrinsics: wrist_camera().scaled(scale)?,
             captures: 3,
             wire: WireParams::default(),
             thresholds: ConfidenceThresholds::default(),
@@ -260,9 +260,9 @@ pub fn run_trial(
             seed.wrapping_mul(31).wrapping_add(k as u64),
         );
         // The message seam, exactly as the camera driver publishes.
-        let info = camera_info(&protocol.intrinsics, header.clone());
+        let info = protocol.intrinsics.to_camera_info(header.clone());
         let image = depth_image(&frame, header.clone(), protocol.encoding);
-        let camera = PinholeCamera::from_camera_info(&info)?;
+        let camera = CameraModel::from_camera_info(&info)?;
         let depth = DepthImage::from_image(&image)?;
         let colour = LumaImage::from_image(&color_image(&frame, header.clone()))?;
         let rays = ray_table(&camera)?;
@@ -332,9 +332,9 @@ pub fn run_trial(
 }
 
 /// The perception ray table of `camera`, cached across calls with the same camera.
-fn ray_table(camera: &PinholeCamera) -> Result<std::sync::Arc<RayTable>, PerceptionError> {
+fn ray_table(camera: &CameraModel) -> Result<std::sync::Arc<RayTable>, PerceptionError> {
     use std::sync::{Arc, Mutex};
-    static CACHE: Mutex<Option<(PinholeCamera, Arc<RayTable>)>> = Mutex::new(None);
+    static CACHE: Mutex<Option<(CameraModel, Arc<RayTable>)>> = Mutex::new(None);
     let mut cache = CACHE
         .lock()
         .unwrap_or_else(std::sync::PoisonError::into_inner);
@@ -344,7 +344,7 @@ fn ray_table(camera: &PinholeCamera) -> Result<std::sync::Arc<RayTable>, Percept
         return Ok(Arc::clone(r));
     }
     let rays = Arc::new(RayTable::new(camera)?);
-    *cache = Some((camera.clone(), Arc::clone(&rays)));
+    *cache = Some((*camera, Arc::clone(&rays)));
     Ok(rays)
 }
 
@@ -402,7 +402,7 @@ pub fn run_handle_trial(
     let header = Header::default();
     let colour = LumaImage::from_image(&color_image(&frame, header.clone()))?;
     let camera =
-        PinholeCamera::from_camera_info(&camera_info(&protocol.intrinsics, header.clone()))?;
+        CameraModel::from_camera_info(&protocol.intrinsics.to_camera_info(header.clone()))?;
     let depth = DepthImage::from_image(&depth_image(&frame, header, protocol.encoding))?;
     let rays = ray_table(&camera)?;
     let camera_from_world = world_from_camera.inverse();

@@ -51,7 +51,7 @@ mod relpose {
         assert_eq!(batch.len(), 2);
         assert_eq!(
             cam.undistort_pixels(&[px, Point2::new(f64::NAN, 4.0)]),
-            Err(RelPoseError::NonFinite { index: 1 })
+            Err(calib::relpose::CameraError::NonFinite { index: 1 })
         );
     }
 
@@ -62,11 +62,11 @@ mod relpose {
         assert!(cam.project(&Point3::new(f64::NAN, 0.1, 0.5)).is_none());
         assert!(matches!(
             cam.undistort_pixel(&Point2::new(f64::NAN, 3.0)),
-            Err(RelPoseError::NonFinite { .. })
+            Err(calib::relpose::CameraError::NonFinite { .. })
         ));
         assert!(matches!(
             cam.backproject(&Point2::new(10.0, 3.0), -1.0),
-            Err(RelPoseError::InvalidParameter {
+            Err(calib::relpose::CameraError::InvalidParameter {
                 name: "depth_m",
                 ..
             })
@@ -78,8 +78,8 @@ mod relpose {
         };
         assert!(matches!(
             wild.undistort_pixel(&Point2::new(6000.0, 5000.0)),
-            Err(RelPoseError::UndistortNotConverged { .. }
-                | RelPoseError::UndistortOutOfDomain { .. })
+            Err(calib::relpose::CameraError::UndistortNotConverged { .. }
+                | calib::relpose::CameraError::UndistortOutOfDomain { .. })
         ));
     }
 

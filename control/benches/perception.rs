@@ -6,7 +6,7 @@
 use std::hint::black_box;
 
 use control::perception::colour::LumaImage;
-use control::perception::point_cloud::PinholeCamera;
+use control::perception::point_cloud::wrist_nominal;
 use control::perception::roi::{PixelRoi, extract_roi};
 use control::perception::synthetic::{NoiseModel, WireScene, wrist_rays};
 use control::perception::wire::{WireParams, detect_wire};
@@ -18,7 +18,7 @@ fn perception(c: &mut Criterion) {
     let Ok(rays) = wrist_rays() else {
         panic!("nominal camera");
     };
-    let cam = PinholeCamera::wrist_nominal();
+    let cam = wrist_nominal();
     let scene = WireScene::random(11);
     let depth = scene.render(&rays, &NoiseModel::default(), 12);
     let w = scene.wire;

@@ -7,7 +7,7 @@ use control::perception::WIRE_RADIUS_M;
 use control::perception::confidence::ConfidenceThresholds;
 use control::perception::cylinder::{Cylinder, RansacParams, fit_cylinder};
 use control::perception::handle::{HandleModel, fit_handle};
-use control::perception::point_cloud::{PinholeCamera, RayTable, to_point_cloud2};
+use control::perception::point_cloud::{CameraModel, RayTable, to_point_cloud2, wrist_nominal};
 use control::perception::roi::{PixelRoi, extract_roi};
 use control::perception::synthetic::{
     CylinderShape, NoiseModel, Scene, WireScene, render_depth, wrist_rays,
@@ -28,7 +28,7 @@ fn rays() -> &'static RayTable {
 
 /// ROI from a panoramic-like prior: the true axis shifted by `prior_error_m` across it.
 fn prior_roi(scene: &WireScene, prior_error_m: f64) -> PixelRoi {
-    let cam = PinholeCamera::wrist_nominal();
+    let cam = wrist_nominal();
     let w = scene.wire;
     let across = w.direction.cross(&Vector3::z()).normalize();
     let c = w.centre + across * prior_error_m;
@@ -49,7 +49,7 @@ fn truth_cylinder(w: &CylinderShape) -> Cylinder {
 
 #[test]
 fn wire_axis_within_half_mm_and_half_degree_and_not_the_centroid() {
-    let cam = PinholeCamera::wrist_nominal();
+    let cam = wrist_nominal();
     let mut worst = (0.0f64, 0.0f64);
     for seed in 0..10u64 {
         let scene = WireScene::random(seed);
@@ -113,7 +113,7 @@ fn wire_axis_within_half_mm_and_half_degree_and_not_the_centroid() {
 
 #[test]
 fn hanging_point_in_base_and_fused_confidence() {
-    let cam = PinholeCamera::wrist_nominal();
+    let cam = wrist_nominal();
     let scene = WireScene::random(42);
     let base_from_camera = Isometry3::from_parts(
         Translation3::new(0.4, -0.1, 1.9),
@@ -187,7 +187,7 @@ fn hanging_point_in_base_and_fused_confidence() {
 
 #[test]
 fn refuses_when_captures_disagree_or_quality_is_poor() {
-    let cam = PinholeCamera::wrist_nominal();
+    let cam = wrist_nominal();
     let scene = WireScene::random(5);
     let roi = prior_roi(&scene, 0.0);
     let depth = scene.render(rays(), &NoiseModel::default(), 1);
@@ -265,7 +265,7 @@ fn refuses_when_captures_disagree_or_quality_is_poor() {
 
 #[test]
 fn handle_centre_and_axis() {
-    let cam = PinholeCamera::wrist_nominal();
+    let cam = wrist_nominal();
     let model = HandleModel::default();
     let handle = CylinderShape {
         centre: Point3::new(0.01, -0.02, 0.42),
@@ -308,7 +308,7 @@ fn handle_centre_and_axis() {
 
 #[test]
 fn cylinder_fit_is_deterministic() {
-    let cam = PinholeCamera::wrist_nominal();
+    let cam = wrist_nominal();
     let scene = WireScene::random(3);
     let depth = scene.render(rays(), &NoiseModel::default(), 4);
     let roi = prior_roi(&scene, 0.0);
@@ -329,7 +329,7 @@ fn cylinder_fit_is_deterministic() {
 #[test]
 fn hanging_point_error_distribution_over_random_scenes() {
     use control::perception::wire::axis_point_nearest_ray;
-    let cam = PinholeCamera::wrist_nominal();
+    let cam = wrist_nominal();
     let mut errors_mm = Vec::new();
     let mut rng = SplitMix64::new(99);
     for seed in 100..130u64 {
@@ -341,8 +341,10 @@ fn hanging_point_error_distribution_over_random_scenes() {
             Err(e) => panic!("seed {seed}: {e}"),
         };
         let (u, v) = roi.centre_px();
-        let (x, y) = cam.undistort_pixel(u, v);
-        let ray = Vector3::new(x, y, 1.0);
+        let x = cam
+            .undistort_pixel(&nalgebra::Point2::new(u, v))
+            .expect("the ROI centre undistorts");
+        let ray = Vector3::new(x.x, x.y, 1.0);
         let truth = truth_cylinder(&scene.wire);
         let (Ok(near_est), Ok(near_true)) = (
             axis_point_nearest_ray(&obs.fit.cylinder, &Point3::origin(), &ray),
@@ -394,7 +396,7 @@ fn look_pose_points_the_camera_at_the_wire() {
         wrist_look_pose(&wire_point, &wire_dir, &(wire_point + wire_dir), 0.45),
         Err(PerceptionError::Degenerate { .. })
     ));
-    let cam_model = PinholeCamera::wrist_nominal();
+    let cam_model = wrist_nominal();
     let behind = PixelRoi::around_segment(
         &cam_model,
         &Point3::new(0.0, 0.0, -1.0),
@@ -407,7 +409,7 @@ fn look_pose_points_the_camera_at_the_wire() {
 
 #[test]
 fn washed_out_capture_is_refused_on_depth_validity() {
-    let cam = PinholeCamera::wrist_nominal();
+    let cam = wrist_nominal();
     let scene = WireScene::random(8);
     let mut depth = scene.render(rays(), &NoiseModel::default(), 8);
     let roi = prior_roi(&scene, 0.0);
@@ -493,7 +495,7 @@ proptest::proptest! {
 
 #[test]
 fn partial_handle_view_is_refused_and_messages_round_trip() {
-    let cam = PinholeCamera::wrist_nominal();
+    let cam = wrist_nominal();
     let model = HandleModel::default();
     let handle = CylinderShape {
         centre: Point3::new(0.0, 0.0, 0.4),
@@ -529,7 +531,7 @@ fn partial_handle_view_is_refused_and_messages_round_trip() {
     );
     // CameraInfo and depth Image round trips.
     let info = cam.to_camera_info(Header::default());
-    assert_eq!(PinholeCamera::from_camera_info(&info), Ok(cam.clone()));
+    assert_eq!(CameraModel::from_camera_info(&info), Ok(cam));
     let image = depth.to_image(Header::default());
     assert_eq!(
         control::perception::point_cloud::DepthImage::from_image(&image),
@@ -540,7 +542,7 @@ fn partial_handle_view_is_refused_and_messages_round_trip() {
         ..info
     };
     assert!(matches!(
-        PinholeCamera::from_camera_info(&fisheye),
-        Err(PerceptionError::BadCamera { .. })
+        CameraModel::from_camera_info(&fisheye),
+        Err(robot::camera::CameraError::BadCameraInfo { .. })
     ));
 }

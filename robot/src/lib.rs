@@ -1,4 +1,5 @@
-//! AUBO i10 + lift + mobile base model: kinematics, inverse kinematics, URDF, TF buffer, the `robot_state` stage.
+//! AUBO i10 + lift + mobile base model: kinematics, inverse kinematics, URDF, TF buffer, the
+//! wrist camera's model, the `robot_state` stage.
 //!
 //! Everything that knows the robot's geometry lives here (ARCHITECTURE.md section 1), shared by the
 //! simulator, calibration and control. Pure maths in [`dh`], [`ik`], [`kinematics`], [`se3`],
@@ -12,6 +13,7 @@
 //! | [`ik`] | closed-form IK, all 8 solutions, limits, nearest choice, singularities |
 //! | [`kinematics`] | base (planar) + lift (prismatic) + arm: every frame, mount numbers |
 //! | [`names`] | frame and joint names (ARCHITECTURE.md section 3) |
+//! | [`camera`] | the camera model (pinhole + plumb_bob, from and to `CameraInfo`) every crate uses |
 //! | [`camera_mount`] | the wrist camera's nominal mount `tool0_from_camera` |
 //! | [`grounding_rod`] | the rod (the robot's tool): dimensions, grasp, hook window, clamp travel |
 //! | [`urdf`] | the generated URDF |
@@ -47,6 +49,7 @@
 //!   `arm_base_link` is DH frame 0 and `tool0` is DH frame 6 (the flange).
 
 pub mod aubo_i10;
+pub mod camera;
 pub mod camera_mount;
 pub mod conversions;
 pub mod dh;
@@ -61,6 +64,7 @@ pub mod tf_buffer;
 pub mod urdf;
 
 pub use aubo_i10::AUBO_I10_DH;
+pub use camera::{CameraError, CameraModel};
 pub use dh::{DhRow, DhTable};
 pub use ik::{ArmIk, IkError, IkSettings, IkSolution, IkSolutions};
 pub use kinematics::{FrameEdge, JointKind, RobotModel};

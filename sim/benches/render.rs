@@ -9,8 +9,8 @@ use std::hint::black_box;
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::Vector3;
 use sim::render::{
-    CameraIntrinsics, LightConditions, RayTable, SensorParams, render_rgbd_with_rays,
-    world_from_camera_looking_at,
+    LightConditions, RayTable, SensorParams, panoramic_camera, render_rgbd_with_rays,
+    world_from_camera_looking_at, wrist_camera,
 };
 use sim::scene::SubstationBuilder;
 
@@ -25,8 +25,8 @@ fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("render_rgbd");
     group.sample_size(10);
     for (name, k) in [
-        ("wrist_1280x1024", Ok(CameraIntrinsics::wrist())),
-        ("wrist_320x256", CameraIntrinsics::wrist().scaled(0.25)),
+        ("wrist_1280x1024", Ok(wrist_camera())),
+        ("wrist_320x256", wrist_camera().scaled(0.25)),
     ] {
         let Ok(k) = k else { continue };
         let Ok(rays) = RayTable::new(&k) else {
@@ -46,7 +46,7 @@ fn bench(c: &mut Criterion) {
             });
         });
     }
-    let pano = CameraIntrinsics::panoramic();
+    let pano = panoramic_camera();
     if let Ok(rays) = RayTable::new(&pano) {
         let spot = layout.world_from_robot_spot.translation.vector;
         let eye = nalgebra::Point3::new(spot.x, spot.y, 1.4);
@@ -64,7 +64,7 @@ fn bench(c: &mut Criterion) {
         }
     }
     group.bench_function("ray_table_1280x1024", |b| {
-        b.iter(|| black_box(RayTable::new(&CameraIntrinsics::wrist())));
+        b.iter(|| black_box(RayTable::new(&wrist_camera())));
     });
     group.finish();
 }

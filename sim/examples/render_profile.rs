@@ -14,9 +14,7 @@
 
 use std::time::Instant;
 
-use sim::render::{
-    CameraIntrinsics, LightConditions, RayTable, SensorParams, render_rgbd_with_rays,
-};
+use sim::render::{LightConditions, RayTable, SensorParams, render_rgbd_with_rays, wrist_camera};
 use sim::scene::SubstationBuilder;
 
 /// CPU time of this process (user + system, seconds) from `/proc/self/stat` (Linux; `None`
@@ -45,7 +43,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let scale: f64 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(1.0);
     let (scene, layout) = SubstationBuilder::new(1).build()?;
     let pose = layout.cabinet_wrist_view().ok_or("bad view")?;
-    let rays = RayTable::new(&CameraIntrinsics::wrist().scaled(scale)?)?;
+    let rays = RayTable::new(&wrist_camera().scaled(scale)?)?;
     let light = LightConditions::from_hour(hour);
     let sensor = SensorParams::wrist();
     let cpu0 = cpu_time_s();

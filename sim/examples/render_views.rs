@@ -13,8 +13,8 @@ use std::time::Instant;
 
 use nalgebra::{Isometry3, Point3, Vector3};
 use sim::render::{
-    CameraIntrinsics, LightConditions, RayTable, RgbdFrame, SensorParams, render_rgbd_with_rays,
-    world_from_camera_looking_at,
+    LightConditions, RayTable, RgbdFrame, SensorParams, panoramic_camera, render_rgbd_with_rays,
+    world_from_camera_looking_at, wrist_camera,
 };
 use sim::scene::SubstationBuilder;
 
@@ -69,8 +69,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     std::fs::create_dir_all(&out)?;
     let (scene, layout) = SubstationBuilder::new(1).build()?;
     println!("static primitives: {}", scene.static_primitive_count());
-    let wrist = CameraIntrinsics::wrist().scaled(scale)?;
-    let pano = CameraIntrinsics::panoramic();
+    let wrist = wrist_camera().scaled(scale)?;
+    let pano = panoramic_camera();
     let wrist_rays = RayTable::new(&wrist)?;
     let pano_rays = RayTable::new(&pano)?;
     let up = Vector3::z();

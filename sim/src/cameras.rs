@@ -12,7 +12,7 @@
 //!   `/camera/color/camera_info` (plumb_bob), all with `header.stamp` = exposure time and
 //!   frame `camera_color_optical_frame`.
 //! * Size 1280x1024 times `camera.scale` (0.25 -> 320x256 for tests), intrinsics
-//!   [`CameraIntrinsics::wrist`] scaled.
+//!   [`wrist_camera`](crate::render::wrist_camera) scaled.
 //! * The image is rendered from the **true** pose at the exposure instant: true base pose,
 //!   lift with its wind tilt, true (perturbed) arm, true (possibly bumped) mount, the wire's
 //!   sway and the rod where it is. Motion during the ~1 s pattern sequence is not modelled
@@ -21,7 +21,7 @@
 //!
 //! # Panoramic camera
 //! Every `panoramic.period_s` (default 1 s; <= 1 Hz) a colour image of
-//! [`CameraIntrinsics::panoramic`] times `panoramic.scale` (default 0.5 -> 320x180) from the
+//! [`panoramic_camera`](crate::render::panoramic_camera) times `panoramic.scale` (default 0.5 -> 320x180) from the
 //! robot crate's nominal `base_from_panoramic_optical`, published 50 ms after exposure
 //! ([`PANORAMIC_LATENCY`]) on `/panoramic/image_raw` and `/panoramic/camera_info`.
 //!
@@ -30,7 +30,7 @@
 
 use msgs::drivers::{CameraCapture, CameraDriver, DriverError};
 use msgs::sensor_msgs::image_encodings::{RGB8, TYPE_16UC1, TYPE_32FC1};
-use msgs::sensor_msgs::{CameraInfo, Image, RegionOfInterest};
+use msgs::sensor_msgs::{CameraInfo, Image};
 use msgs::std_msgs::Header;
 use msgs::{RobotDuration, RobotTime};
 use nalgebra::Isometry3;
@@ -38,7 +38,8 @@ use nalgebra::Isometry3;
 use crate::SimError;
 use crate::config::{CameraConfig, DepthEncoding, PanoramicConfig};
 use crate::render::{
-    CameraIntrinsics, LightConditions, RayTable, RgbdFrame, SensorParams, render_rgbd_with_rays,
+    CameraModel, LightConditions, RayTable, RgbdFrame, SensorParams, panoramic_camera,
+    render_rgbd_with_rays, wrist_camera,
 };
 use crate::rng::{self, streams};
 use crate::scene::Scene;
@@ -49,26 +50,6 @@ pub const CAMERA_DRIVER: &str = "camera_driver";
 pub const PANORAMIC_DRIVER: &str = "panoramic_driver";
 /// Exposure -> publication delay of the panoramic camera.
 pub const PANORAMIC_LATENCY: RobotDuration = RobotDuration::from_millis(50);
-
-/// `sensor_msgs/CameraInfo` of `k` (plumb_bob `[k1, k2, p1, p2, k3]`, `R = I`, `P = [K | 0]`).
-#[must_use]
-pub fn camera_info(k: &CameraIntrinsics, header: Header) -> CameraInfo {
-    CameraInfo {
-        header,
-        height: k.height,
-        width: k.width,
-        distortion_model: "plumb_bob".to_owned(),
-        d: vec![k.k1, k.k2, k.p1, k.p2, k.k3],
-        k: [k.fx, 0.0, k.cx, 0.0, k.fy, k.cy, 0.0, 0.0, 1.0],
-        r: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
-        p: [
-            k.fx, 0.0, k.cx, 0.0, 0.0, k.fy, k.cy, 0.0, 0.0, 0.0, 1.0, 0.0,
-        ],
-        binning_x: 0,
-        binning_y: 0,
-        roi: RegionOfInterest::default(),
-    }
-}
 
 /// The colour image of a frame (`rgb8`).
 #[must_use]
@@ -133,7 +114,7 @@ struct Pending {
 #[derive(Debug, Clone)]
 pub struct WristCamera {
     seed: u64,
-    intrinsics: CameraIntrinsics,
+    intrinsics: CameraModel,
     rays: RayTable,
     sensor: SensorParams,
     depth_encoding: DepthEncoding,
@@ -149,7 +130,7 @@ impl WristCamera {
     /// # Errors
     /// [`SimError::Render`] for an invalid scale; [`SimError::Config`] for durations.
     pub fn new(config: &CameraConfig, seed: u64) -> Result<Self, SimError> {
-        let intrinsics = CameraIntrinsics::wrist()
+        let intrinsics = wrist_camera()
             .scaled(config.scale)
             .map_err(crate::render::RenderError::from)?;
         let rays = RayTable::new(&intrinsics)?;
@@ -174,7 +155,7 @@ impl WristCamera {
 
     /// The intrinsics at the output size.
     #[must_use]
-    pub fn intrinsics(&self) -> &CameraIntrinsics {
+    pub fn intrinsics(&self) -> &CameraModel {
         &self.intrinsics
     }
 
@@ -222,7 +203,7 @@ impl WristCamera {
         p.result = Some(CameraCapture {
             color: color_image(&frame, header.clone()),
             depth: Some(depth_image(&frame, header.clone(), self.depth_encoding)),
-            camera_info: camera_info(&self.intrinsics, header),
+            camera_info: self.intrinsics.to_camera_info(header),
             ready_at: p.ready,
         });
         self.captures += 1;
@@ -267,7 +248,7 @@ impl CameraDriver for WristCamera {
 #[derive(Debug, Clone)]
 pub struct PanoramicCamera {
     seed: u64,
-    intrinsics: CameraIntrinsics,
+    intrinsics: CameraModel,
     rays: RayTable,
     sensor: SensorParams,
     /// Capture period (`None` = off).
@@ -281,7 +262,7 @@ impl PanoramicCamera {
     /// # Errors
     /// [`SimError::Render`] for an invalid scale; [`SimError::Config`] for the period.
     pub fn new(config: &PanoramicConfig, seed: u64) -> Result<Self, SimError> {
-        let intrinsics = CameraIntrinsics::panoramic()
+        let intrinsics = panoramic_camera()
             .scaled(config.scale)
             .map_err(crate::render::RenderError::from)?;
         let rays = RayTable::new(&intrinsics)?;
@@ -336,7 +317,7 @@ impl PanoramicCamera {
         let header = header_at(PANORAMIC_DRIVER, t, msgs::frames::PANORAMIC_OPTICAL_FRAME)?;
         Ok((
             color_image(&frame, header.clone()),
-            camera_info(&self.intrinsics, header),
+            self.intrinsics.to_camera_info(header),
         ))
     }
 }

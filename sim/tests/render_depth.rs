@@ -2,14 +2,15 @@
 
 use nalgebra::{Isometry3, Matrix3, Point3, Vector3};
 use sim::render::{
-    CameraIntrinsics, LightConditions, SensorParams, render_rgbd, world_from_camera_looking_at,
+    CameraModel, LightConditions, SensorParams, render_rgbd, world_from_camera_looking_at,
+    wrist_camera,
 };
 use sim::scene::{Material, Scene, SceneBuilder, Shape, Texture};
 
 type TestResult = Result<(), Box<dyn std::error::Error>>;
 
-fn camera() -> Result<CameraIntrinsics, Box<dyn std::error::Error>> {
-    Ok(CameraIntrinsics::wrist().scaled(0.25)?)
+fn camera() -> Result<CameraModel, Box<dyn std::error::Error>> {
+    Ok(wrist_camera().scaled(0.25)?)
 }
 
 fn one_shape(shape: Option<Shape>, ground: bool) -> Result<Scene, Box<dyn std::error::Error>> {
@@ -25,13 +26,9 @@ fn one_shape(shape: Option<Shape>, ground: bool) -> Result<Scene, Box<dyn std::e
 }
 
 /// Unit ray of pixel (u, v) in the camera frame, from the camera model (not the renderer).
-fn pixel_ray(
-    k: &CameraIntrinsics,
-    u: u32,
-    v: u32,
-) -> Result<Vector3<f64>, Box<dyn std::error::Error>> {
-    let [x, y] = k.undistort(f64::from(u), f64::from(v))?;
-    Ok(Vector3::new(x, y, 1.0).normalize())
+fn pixel_ray(k: &CameraModel, u: u32, v: u32) -> Result<Vector3<f64>, Box<dyn std::error::Error>> {
+    let x = k.undistort_pixel(&nalgebra::Point2::new(f64::from(u), f64::from(v)))?;
+    Ok(Vector3::new(x.x, x.y, 1.0).normalize())
 }
 
 /// Compares the rendered depth with `analytic(ray_in_world, origin) -> Option<t>` for every

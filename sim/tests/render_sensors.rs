@@ -2,8 +2,8 @@
 
 use nalgebra::{Isometry3, Point3, Vector3};
 use sim::render::{
-    CameraIntrinsics, LightConditions, RgbdFrame, SensorParams, render_rgbd,
-    world_from_camera_looking_at,
+    LightConditions, RgbdFrame, SensorParams, render_rgbd, world_from_camera_looking_at,
+    wrist_camera,
 };
 use sim::scene::{Material, SceneBuilder, Shape, SubstationBuilder, Texture};
 
@@ -20,7 +20,7 @@ fn cabinet_view(seed: u64, hour: f64, threads: usize) -> Result<RgbdFrame, BoxEr
         &Vector3::z(),
     )
     .ok_or("pose")?;
-    let k = CameraIntrinsics::wrist().scaled(0.25)?;
+    let k = wrist_camera().scaled(0.25)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
@@ -62,7 +62,7 @@ fn same_scene_pose_and_seed_give_identical_bytes_with_1_and_2_threads() -> TestR
 #[test]
 fn renderer_output_is_identical_for_1_2_and_3_threads() -> TestResult {
     let (scene, layout) = SubstationBuilder::new(5).build()?;
-    let k = CameraIntrinsics::wrist().scaled(0.5)?;
+    let k = wrist_camera().scaled(0.5)?;
     let rays = sim::render::RayTable::new(&k)?;
     let c = layout.calibration_target_center;
     let rod = layout.world_from_rod_stored * Point3::new(0.0, 0.0, 0.9);
@@ -167,7 +167,7 @@ fn at_400_lx_auto_exposure_keeps_the_mean_but_snr_drops() -> TestResult {
         &Vector3::z(),
     )
     .ok_or("pose")?;
-    let k = CameraIntrinsics::wrist().scaled(0.25)?;
+    let k = wrist_camera().scaled(0.25)?;
     let s = SensorParams::wrist();
     let f_noon = render_rgbd(&scene, &pose, &k, &LightConditions::from_hour(12.0), &s, 1)?;
     let f_dim = render_rgbd(&scene, &pose, &k, &LightConditions::from_hour(18.0), &s, 1)?;
@@ -188,7 +188,7 @@ fn at_400_lx_auto_exposure_keeps_the_mean_but_snr_drops() -> TestResult {
 
 #[test]
 fn a_small_sphere_appears_where_the_plumb_bob_model_projects_it() -> TestResult {
-    let k = CameraIntrinsics::wrist().scaled(0.5)?;
+    let k = wrist_camera().scaled(0.5)?;
     let pose = Isometry3::identity(); // camera = world, looking along +z
     // Off-centre so that distortion moves it by a few pixels.
     let c = Point3::new(0.16, 0.12, 0.5);
@@ -222,7 +222,8 @@ fn a_small_sphere_appears_where_the_plumb_bob_model_projects_it() -> TestResult 
     }
     assert!(n > 50.0, "{n} pixels");
     let (cu, cv) = (su / n, sv / n);
-    let [pu, pv] = k.project(&c).ok_or("behind")?;
+    let p = k.project(&c).ok_or("behind")?;
+    let (pu, pv) = (p.x, p.y);
     eprintln!("sphere centroid ({cu:.3}, {cv:.3}) projection ({pu:.3}, {pv:.3}) n = {n}");
     assert!(
         (cu - pu).hypot(cv - pv) < 0.5,
@@ -242,7 +243,7 @@ fn moving_the_wire_changes_only_what_it_covers() -> TestResult {
     let pose =
         world_from_camera_looking_at(&(mid + Vector3::new(0.0, -0.2, -0.4)), &mid, &Vector3::z())
             .ok_or("pose")?;
-    let k = CameraIntrinsics::wrist().scaled(0.25)?;
+    let k = wrist_camera().scaled(0.25)?;
     let light = LightConditions::from_hour(10.0);
     let s = SensorParams::ideal();
     let before = render_rgbd(&scene, &pose, &k, &light, &s, 0)?;

@@ -12,7 +12,7 @@ use msgs::sensor_msgs::{CameraInfo, Image, JointState};
 use msgs::topics;
 use msgs::{Msg, RobotTime};
 use scenario::{CommandKind, Scenario};
-use sim::render::{CameraIntrinsics, raycast_depth};
+use sim::render::{raycast_depth, wrist_camera};
 use sim::world::mount_from_config;
 use sim::{SimConfig, SimWorld};
 
@@ -274,7 +274,7 @@ fn calib18_views_see_the_cabinet_at_working_distance_with_the_arm_settled() -> T
         .find(|c| c.kind == CommandKind::Lift)
         .and_then(|c| c.values.first().copied())
         .ok_or("no lift")?;
-    let k = CameraIntrinsics::wrist();
+    let k = wrist_camera();
     let goals: Vec<[f64; 6]> = s
         .commands
         .iter()

@@ -44,8 +44,8 @@ use nalgebra::{Isometry3, Point3, Translation3, Unit, UnitQuaternion, Vector3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sim::render::{
-    CameraIntrinsics, LightConditions, RayTable, SensorParams, render_rgbd_with_rays,
-    world_from_camera_looking_at,
+    LightConditions, RayTable, SensorParams, render_rgbd_with_rays, world_from_camera_looking_at,
+    wrist_camera,
 };
 
 use super::progress::Progress;
@@ -119,7 +119,7 @@ impl SimContext {
         let (scene, layout) = sim::scene::SubstationBuilder::new(SCENE_SEED)
             .build()
             .context("building the simulated substation")?;
-        let intrinsics = CameraIntrinsics::wrist()
+        let intrinsics = wrist_camera()
             .scaled(RENDER_SCALE * image_scale)
             .context("scaling the wrist camera")?;
         let rays = RayTable::new(&intrinsics).context("ray table")?;

@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use calib::handeye::pose_file::parse_tum;
 
-use super::{Dataset, Intrinsics, View};
+use super::{CameraModel, Dataset, View};
 
 /// Reads a folder dataset (no pixels are decoded here).
 ///
@@ -79,7 +79,7 @@ fn find_image(images: &Path, index: u64) -> Result<PathBuf> {
 }
 
 /// Parses the flat `key: value` camera file (comments after `#`).
-fn read_camera_yaml(path: &Path) -> Result<Intrinsics> {
+fn read_camera_yaml(path: &Path) -> Result<CameraModel> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let mut values = BTreeMap::new();
@@ -130,14 +130,13 @@ fn read_camera_yaml(path: &Path) -> Result<Intrinsics> {
         );
     }
     let opt = |key: &str| values.get(key).copied().unwrap_or(0.0);
-    Ok(Intrinsics {
-        width: dim("width")?,
-        height: dim("height")?,
+    let camera = CameraModel::pinhole(
+        dim("width")?,
+        dim("height")?,
         fx,
         fy,
-        cx: get("cx")?,
-        cy: get("cy")?,
-        skew: 0.0,
-        distortion: [opt("k1"), opt("k2"), opt("p1"), opt("p2"), opt("k3")],
-    })
+        get("cx")?,
+        get("cy")?,
+    );
+    Ok(camera.with_distortion([opt("k1"), opt("k2"), opt("p1"), opt("p2"), opt("k3")]))
 }

@@ -15,73 +15,14 @@ use std::path::Path;
 
 use anyhow::{Context, Result, bail};
 use image::{DynamicImage, GenericImageView, imageops::FilterType};
-use msgs::builtin_interfaces::Time;
 use msgs::frames::{BASE_LINK, CAMERA_COLOR_OPTICAL_FRAME, TOOL0};
-use msgs::sensor_msgs::{CameraInfo, Image, RegionOfInterest, image_encodings};
+use msgs::sensor_msgs::{Image, image_encodings};
 use msgs::std_msgs::Header;
 use msgs::tf2_msgs::TfMessage;
 use msgs::{Msg, RobotTime, topics};
 use nalgebra::Isometry3;
 use recorder::{McapSink, MetadataRecord, SinkOptions};
-
-/// Pinhole + plumb_bob intrinsics of the imported camera, in pixels of the stored images.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Intrinsics {
-    /// Image width, px.
-    pub width: u32,
-    /// Image height, px.
-    pub height: u32,
-    /// Focal length x, px.
-    pub fx: f64,
-    /// Focal length y, px.
-    pub fy: f64,
-    /// Principal point x, px.
-    pub cx: f64,
-    /// Principal point y, px.
-    pub cy: f64,
-    /// Skew (K[0][1]), px; 0 for nearly every camera.
-    pub skew: f64,
-    /// plumb_bob `[k1, k2, p1, p2, k3]`.
-    pub distortion: [f64; 5],
-}
-
-impl Intrinsics {
-    /// The intrinsics of the same camera after resizing its images by `factor` (pixel
-    /// centres map as `(u + 0.5) * factor - 0.5`; distortion acts on normalised coordinates
-    /// and is unchanged).
-    pub fn scaled(&self, factor: f64, width: u32, height: u32) -> Self {
-        Self {
-            width,
-            height,
-            fx: self.fx * factor,
-            fy: self.fy * factor,
-            cx: (self.cx + 0.5) * factor - 0.5,
-            cy: (self.cy + 0.5) * factor - 0.5,
-            skew: self.skew * factor,
-            distortion: self.distortion,
-        }
-    }
-
-    fn camera_info(&self, stamp: Time) -> CameraInfo {
-        let (fx, fy, cx, cy, s) = (self.fx, self.fy, self.cx, self.cy, self.skew);
-        CameraInfo {
-            header: Header {
-                stamp,
-                frame_id: CAMERA_COLOR_OPTICAL_FRAME.to_owned(),
-            },
-            height: self.height,
-            width: self.width,
-            distortion_model: "plumb_bob".to_owned(),
-            d: self.distortion.to_vec(),
-            k: [fx, s, cx, 0.0, fy, cy, 0.0, 0.0, 1.0],
-            r: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
-            p: [fx, s, cx, 0.0, 0.0, fy, cy, 0.0, 0.0, 0.0, 1.0, 0.0],
-            binning_x: 0,
-            binning_y: 0,
-            roi: RegionOfInterest::default(),
-        }
-    }
-}
+use robot::camera::CameraModel;
 
 /// One view of a dataset: image (and depth) files and the hand pose at capture.
 #[derive(Debug, Clone)]
@@ -102,7 +43,7 @@ pub struct Dataset {
     /// Where it came from (for the metadata record).
     pub origin: String,
     /// Camera intrinsics at the files' resolution.
-    pub camera: Intrinsics,
+    pub camera: CameraModel,
     /// Views in capture order.
     pub views: Vec<View>,
 }
@@ -159,7 +100,7 @@ fn write_views(
             .with("rodlog", env!("CARGO_PKG_VERSION"))
             .with("importer", dataset.source),
     )?;
-    let mut camera: Option<Intrinsics> = None;
+    let mut camera: Option<CameraModel> = None;
     let mut summary = ImportSummary {
         views: 0,
         depth_views: 0,
@@ -176,7 +117,7 @@ fn write_views(
             .with_context(|| format!("view {index}: {}", view.image.display()))?;
         let (width, height) = color.dimensions();
         let intrinsics = match &camera {
-            Some(c) => c.clone(),
+            Some(c) => *c,
             None => {
                 let c = check_size(&dataset.camera, scale, width, height)
                     .with_context(|| format!("view {index}: {}", view.image.display()))?;
@@ -185,10 +126,10 @@ fn write_views(
                     &producer_camera,
                     log_time,
                     log_time,
-                    &Msg::from(c.camera_info(stamp)),
+                    &Msg::from(c.to_camera_info(header.clone())),
                 )?;
                 summary.messages += 1;
-                camera = Some(c.clone());
+                camera = Some(c);
                 c
             }
         };
@@ -251,7 +192,7 @@ fn write_views(
     Ok(summary)
 }
 
-fn check_size(camera: &Intrinsics, scale: f64, width: u32, height: u32) -> Result<Intrinsics> {
+fn check_size(camera: &CameraModel, scale: f64, width: u32, height: u32) -> Result<CameraModel> {
     let expect_w = (f64::from(camera.width) * scale).round() as u32;
     let expect_h = (f64::from(camera.height) * scale).round() as u32;
     if (width, height) != (expect_w, expect_h) {
@@ -262,9 +203,9 @@ fn check_size(camera: &Intrinsics, scale: f64, width: u32, height: u32) -> Resul
         );
     }
     Ok(if scale == 1.0 {
-        camera.clone()
+        *camera
     } else {
-        camera.scaled(scale, width, height)
+        camera.scaled(scale)?
     })
 }
 

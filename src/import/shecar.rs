@@ -12,7 +12,7 @@ use std::path::Path;
 use anyhow::{Context, Result, bail};
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
-use super::{Dataset, Intrinsics, View};
+use super::{CameraModel, Dataset, View};
 
 /// Reads the shecar layout (no pixels are decoded here; the size comes from the first JPEG's
 /// header).
@@ -95,7 +95,7 @@ fn base_from_hand(n: &[f64; 12]) -> Result<Isometry3<f64>> {
     ))
 }
 
-fn read_intrinsics(path: &Path, first_image: Option<&Path>) -> Result<Intrinsics> {
+fn read_intrinsics(path: &Path, first_image: Option<&Path>) -> Result<CameraModel> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let mut camera: Option<[f64; 7]> = None;
@@ -144,16 +144,14 @@ fn read_intrinsics(path: &Path, first_image: Option<&Path>) -> Result<Intrinsics
     };
     let (width, height) = image::image_dimensions(first)
         .with_context(|| format!("cannot read {}", first.display()))?;
-    Ok(Intrinsics {
-        width,
-        height,
-        fx: f,
-        fy: f * aspect,
-        cx,
-        cy,
-        skew,
-        distortion: [k1, k2, 0.0, 0.0, 0.0],
-    })
+    if skew != 0.0 {
+        bail!(
+            "{}: skew {skew} px: rodlog's camera model (pinhole + plumb_bob) has none; correct the images for it first",
+            path.display()
+        );
+    }
+    Ok(CameraModel::pinhole(width, height, f, f * aspect, cx, cy)
+        .with_distortion([k1, k2, 0.0, 0.0, 0.0]))
 }
 
 /// Resize of the 3264x1836 shecar photos before `--image-scale` in the experiments (1306x734,
@@ -171,7 +169,7 @@ pub struct Resized {
     /// The resize factor.
     pub scale: f64,
     /// The camera of the resized photos (plumb_bob kept).
-    pub camera: calib::relpose::CameraModel,
+    pub camera: CameraModel,
 }
 
 /// Reads shecar for an experiment run at `image_scale` (see [`Resized`]).
@@ -181,20 +179,7 @@ pub struct Resized {
 pub fn open_resized(dir: &Path, image_scale: f64) -> Result<Resized> {
     let dataset = read(dir).with_context(|| format!("reading shecar at {}", dir.display()))?;
     let scale = (EXPERIMENT_SCALE * image_scale).max(EXPERIMENT_MIN_SCALE);
-    let c = &dataset.camera;
-    let (w, h) = (
-        (f64::from(c.width) * scale).round() as u32,
-        (f64::from(c.height) * scale).round() as u32,
-    );
-    let s = c.scaled(scale, w, h);
-    let camera = calib::relpose::CameraModel {
-        k1: s.distortion[0],
-        k2: s.distortion[1],
-        p1: s.distortion[2],
-        p2: s.distortion[3],
-        k3: s.distortion[4],
-        ..calib::relpose::CameraModel::pinhole(w, h, s.fx, s.fy, s.cx, s.cy)
-    };
+    let camera = dataset.camera.scaled(scale)?;
     Ok(Resized {
         dataset,
         scale,

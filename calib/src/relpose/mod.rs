@@ -6,7 +6,7 @@
 //! `i`, `j` the pipeline calls these estimators with `a = cam_i`, `b = cam_j`, so the result
 //! is `A_ij = cam_i_from_cam_j`. Camera frames use OpenCV optical axes (x right, y down,
 //! z forward); f64; metres and radians inside. Normalised image coordinates are
-//! `x = (X/Z, Y/Z)` after undistortion ([`camera::CameraModel::undistort_pixel`]).
+//! `x = (X/Z, Y/Z)` after undistortion ([`CameraModel::undistort_pixel`], the one camera model of `robot::camera`).
 //!
 //! # Estimators
 //!
@@ -38,7 +38,6 @@
 //! RANSAC draws its samples from a counter-based SplitMix64 stream of the given seed
 //! ([`ransac::SplitMix64`]); no threads, no clock: the same input and seed give the same bits.
 
-pub mod camera;
 pub mod essential;
 pub mod five_point;
 pub mod fundamental;
@@ -49,10 +48,10 @@ pub mod rigid3d;
 pub mod triangulate;
 pub mod umeyama;
 
-pub use camera::CameraModel;
 pub use essential::{EssentialEstimate, EssentialParams, estimate_essential_ransac};
 pub use refine::{DepthNoiseModel, RefineParams, RefineReport, RefineTermination};
 pub use rigid3d::{RigidEstimate, RigidRansacParams, estimate_rigid_ransac};
+pub use robot::camera::{CameraError, CameraModel};
 pub use umeyama::{rigid_from_correspondences, similarity_from_correspondences};
 
 /// Errors of the relative pose estimators; every variant carries the numbers that explain it.
@@ -111,35 +110,10 @@ pub enum RelPoseError {
         /// Its value.
         value: f64,
     },
-    /// Iterative undistortion did not converge (distortion too strong or pixel far outside).
-    #[error(
-        "undistortion of pixel ({u}, {v}) did not converge: residual {residual} after {iterations} iterations"
-    )]
-    UndistortNotConverged {
-        /// Pixel column.
-        u: f64,
-        /// Pixel row.
-        v: f64,
-        /// Final residual in normalised coordinates.
-        residual: f64,
-        /// Iterations run.
-        iterations: usize,
-    },
-    /// The undistortion root lies beyond the fold of the distortion map (non-positive radial
-    /// factor or Jacobian determinant): the pixel has no physical preimage.
-    #[error(
-        "undistortion of ({u}, {v}) out of the distortion's domain: radial factor {radial_factor}, Jacobian determinant {jacobian_det}"
-    )]
-    UndistortOutOfDomain {
-        /// Pixel column (normalised distorted x when raised by `undistort_normalised`).
-        u: f64,
-        /// Pixel row (normalised distorted y when raised by `undistort_normalised`).
-        v: f64,
-        /// `1 + k1 r^2 + k2 r^4 + k3 r^6` at the root.
-        radial_factor: f64,
-        /// Determinant of the distortion Jacobian at the root.
-        jacobian_det: f64,
-    },
+    /// The camera model refused a pixel or a depth (non-finite, out of the distortion's
+    /// domain, undistortion not converged).
+    #[error(transparent)]
+    Camera(#[from] CameraError),
     /// A linear-algebra step (SVD, Schur) failed to converge.
     #[error("numerical failure in {step}")]
     Numerical {

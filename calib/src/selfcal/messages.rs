@@ -150,49 +150,9 @@ pub fn depth_from_image(topic: &str, stamp: u64, img: &Image) -> Result<Vec<f32>
 /// [`SelfCalError::BadCameraInfo`] for a non-positive focal length, a zero size, or a
 /// distortion model other than plumb_bob with non-zero coefficients.
 pub fn camera_from_info(info: &CameraInfo) -> Result<CameraModel, SelfCalError> {
-    let k = &info.k;
-    let (fx, fy, cx, cy) = (k[0], k[4], k[2], k[5]);
-    if !(fx.is_finite()
-        && fy.is_finite()
-        && fx > 0.0
-        && fy > 0.0
-        && cx.is_finite()
-        && cy.is_finite())
-    {
-        return Err(SelfCalError::BadCameraInfo {
-            reason: format!("K has fx = {fx}, fy = {fy}, cx = {cx}, cy = {cy}"),
-        });
-    }
-    if info.width == 0 || info.height == 0 {
-        return Err(SelfCalError::BadCameraInfo {
-            reason: format!("image size {}x{}", info.width, info.height),
-        });
-    }
-    let model = info.distortion_model.as_str();
-    let any_distortion = info.d.iter().any(|&v| v != 0.0);
-    if any_distortion && model != "plumb_bob"
-        || info.d.len() > 5 && info.d.iter().skip(5).any(|&v| v != 0.0)
-    {
-        return Err(SelfCalError::BadCameraInfo {
-            reason: format!(
-                "distortion model {model:?} with {} coefficients: only plumb_bob [k1 k2 p1 p2 k3] is supported",
-                info.d.len()
-            ),
-        });
-    }
-    if info.d.iter().any(|v| !v.is_finite()) {
-        return Err(SelfCalError::BadCameraInfo {
-            reason: "non-finite distortion coefficient".to_owned(),
-        });
-    }
-    let d = |i: usize| info.d.get(i).copied().unwrap_or(0.0);
-    let mut cam = CameraModel::pinhole(info.width, info.height, fx, fy, cx, cy);
-    cam.k1 = d(0);
-    cam.k2 = d(1);
-    cam.p1 = d(2);
-    cam.p2 = d(3);
-    cam.k3 = d(4);
-    Ok(cam)
+    CameraModel::from_camera_info(info).map_err(|e| SelfCalError::BadCameraInfo {
+        reason: e.to_string(),
+    })
 }
 
 /// Views and camera model from decoded messages `(topic, message)` in log order.

@@ -29,7 +29,7 @@
 
 use super::PerceptionError;
 use super::cylinder::Cylinder;
-use super::point_cloud::{PinholeCamera, image_rows};
+use super::point_cloud::{CameraModel, image_rows};
 use msgs::sensor_msgs::Image;
 use nalgebra::Point3;
 
@@ -186,7 +186,7 @@ pub fn axis_extent(cylinder: &Cylinder, points: &[Point3<f64>]) -> Option<(f64, 
 #[must_use]
 pub fn limb_contrast(
     image: &LumaImage,
-    camera: &PinholeCamera,
+    camera: &CameraModel,
     cylinder: &Cylinder,
     extent: (f64, f64),
 ) -> Option<LimbContrast> {
@@ -214,7 +214,8 @@ pub fn limb_contrast(
                 let mut k = k_lo * r;
                 while k <= k_hi * r {
                     let q: Point3<f64> = p + a * j + e * k;
-                    if let Some(value) = camera.project(&q).and_then(|(u, v)| image.nearest(u, v)) {
+                    if let Some(value) = camera.project(&q).and_then(|px| image.nearest(px.x, px.y))
+                    {
                         m.push(f64::from(value));
                     }
                     k += step_m;
@@ -260,7 +261,7 @@ mod tests {
 
     /// A `mono8` image of a horizontal bar (the cylinder at z = 0.5 m seen side-on) of
     /// intensity `wire` on `background`, with uniform noise of amplitude `noise`.
-    fn bar_image(camera: &PinholeCamera, wire: f64, background: f64, noise: f64) -> Image {
+    fn bar_image(camera: &CameraModel, wire: f64, background: f64, noise: f64) -> Image {
         let (w, h) = (camera.width as usize, camera.height as usize);
         let half_px = camera.fx * 0.0134 / 0.5;
         let mut rng = SplitMix64::new(7);
@@ -287,16 +288,8 @@ mod tests {
         }
     }
 
-    fn camera() -> PinholeCamera {
-        PinholeCamera {
-            width: 320,
-            height: 256,
-            fx: 436.0,
-            fy: 436.0,
-            cx: 160.0,
-            cy: 128.0,
-            distortion: [0.0; 5],
-        }
+    fn camera() -> CameraModel {
+        CameraModel::pinhole(320, 256, 436.0, 436.0, 160.0, 128.0).with_distortion([0.0; 5])
     }
 
     fn bar() -> Cylinder {

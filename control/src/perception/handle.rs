@@ -19,7 +19,7 @@ use super::PerceptionError;
 use super::colour::{LumaImage, axis_extent, limb_contrast};
 use super::confidence::{ConfidenceThresholds, ramp};
 use super::cylinder::{CylinderFit, RansacParams, fit_cylinder};
-use super::point_cloud::PinholeCamera;
+use super::point_cloud::CameraModel;
 use super::wire::{HangingPoint, hanging_point};
 use nalgebra::{Point3, Vector3};
 
@@ -66,7 +66,7 @@ impl HandleEstimate {
         &self,
         points: &[Point3<f64>],
         colour: &LumaImage,
-        camera: &PinholeCamera,
+        camera: &CameraModel,
     ) -> f64 {
         let inliers: Vec<Point3<f64>> = self
             .fit
@@ -90,7 +90,7 @@ impl HandleEstimate {
         &self,
         points: &[Point3<f64>],
         colour: &LumaImage,
-        camera: &PinholeCamera,
+        camera: &CameraModel,
         thresholds: &ConfidenceThresholds,
     ) -> Result<f64, PerceptionError> {
         let contrast = self.colour_contrast(points, colour, camera);

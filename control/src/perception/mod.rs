@@ -39,20 +39,9 @@ pub const WIRE_RADIUS_M: f64 = 0.0134;
 /// Why perception produced no estimate (it refuses rather than guesses).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum PerceptionError {
-    /// The camera model is unusable.
-    #[error("camera model: {reason} (width {width}, height {height}, fx {fx}, fy {fy})")]
-    BadCamera {
-        /// What is wrong.
-        reason: &'static str,
-        /// Image width (px).
-        width: u32,
-        /// Image height (px).
-        height: u32,
-        /// Focal length x (px).
-        fx: f64,
-        /// Focal length y (px).
-        fy: f64,
-    },
+    /// The camera model is unusable (bad `CameraInfo`, or a distortion without an inverse).
+    #[error("camera model: {0}")]
+    Camera(#[from] robot::camera::CameraError),
     /// A depth or colour image does not match the camera or has an unsupported layout.
     #[error(
         "{image} image: {reason} (encoding {encoding}, {width}x{height}, step {step}, {bytes} bytes)"

@@ -43,10 +43,10 @@
 //! horizontal, so a conductor 4.4 m above and less than ~2 m ahead of it is out of view: the
 //! robot takes the panoramic fix a few metres before its working spot.
 
-use nalgebra::{Isometry3, Matrix3, Point3, Vector3};
+use nalgebra::{Isometry3, Matrix3, Point2, Point3, Vector3};
 
 use super::PerceptionError;
-use super::point_cloud::PinholeCamera;
+use super::point_cloud::CameraModel;
 use rng::SplitMix64;
 
 /// Samples along the projected prior that fall inside the image must number at least this.
@@ -218,7 +218,7 @@ pub struct PanoramicWire {
 pub fn find_wire_region(
     image: &RgbView<'_>,
     luma_weights: &[f64; 3],
-    camera: &PinholeCamera,
+    camera: &CameraModel,
     frame_from_camera: &Isometry3<f64>,
     prior: &WirePrior,
     params: &PanoramicParams,
@@ -234,7 +234,9 @@ pub fn find_wire_region(
     let (w, h) = (f64::from(camera.width), f64::from(camera.height));
     let project = |t: f64| {
         let p = prior.point + d0 * t;
-        camera.project(&(camera_from_frame * p))
+        camera
+            .project(&(camera_from_frame * p))
+            .map(|px| (px.x, px.y))
     };
     let mut in_view = 0usize;
     let mut candidates: Vec<((f64, f64), f64)> = Vec::new();
@@ -269,10 +271,10 @@ pub fn find_wire_region(
     let rays: Vec<Vector3<f64>> = candidates
         .iter()
         .map(|((u, v), _)| {
-            let (x, y) = camera.undistort_pixel(*u, *v);
-            Vector3::new(x, y, 1.0).normalize()
+            let x = camera.undistort_pixel(&Point2::new(*u, *v))?;
+            Ok(Vector3::new(x.x, x.y, 1.0).normalize())
         })
-        .collect();
+        .collect::<Result<_, PerceptionError>>()?;
     let needed = ((params.min_inlier_fraction * in_view as f64).ceil() as usize).max(2);
     let no_wire = |inliers: usize| PerceptionError::PanoramicNoWire {
         inliers,
@@ -413,16 +415,9 @@ mod tests {
 
     /// A 320x180 panoramic camera looking north (frame: x east, y north, z up), pitched up
     /// 30 deg, at the origin 0.9 m high.
-    fn setup() -> (PinholeCamera, Isometry3<f64>) {
-        let camera = PinholeCamera {
-            width: 320,
-            height: 180,
-            fx: 130.0,
-            fy: 130.0,
-            cx: 159.5,
-            cy: 89.5,
-            distortion: [-0.12, 0.01, 0.0, 0.0, 0.0],
-        };
+    fn setup() -> (CameraModel, Isometry3<f64>) {
+        let camera = CameraModel::pinhole(320, 180, 130.0, 130.0, 159.5, 89.5)
+            .with_distortion([-0.12, 0.01, 0.0, 0.0, 0.0]);
         let pitch = 30f64.to_radians();
         let z = Vector3::new(0.0, pitch.cos(), pitch.sin());
         let x = Vector3::x();
@@ -437,7 +432,7 @@ mod tests {
 
     /// Renders a sky gradient with a dark wire (a straight line along x at `(y, z)`, drawn
     /// with its true projected width, antialiased by supersampling) and a dark box.
-    fn render(camera: &PinholeCamera, pose: &Isometry3<f64>, wire_y: f64, wire_z: f64) -> Vec<u8> {
+    fn render(camera: &CameraModel, pose: &Isometry3<f64>, wire_y: f64, wire_z: f64) -> Vec<u8> {
         let (w, h) = (camera.width as usize, camera.height as usize);
         let mut data = vec![0u8; w * h * 3];
         let cam_from_world = pose.inverse();
@@ -445,8 +440,11 @@ mod tests {
             for u in 0..w {
                 let mut cover = 0.0;
                 for (su, sv) in [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)] {
-                    let (x, y) = camera.undistort_pixel(u as f64 - 0.5 + su, v as f64 - 0.5 + sv);
-                    let dir = pose.rotation * Vector3::new(x, y, 1.0);
+                    let px = Point2::new(u as f64 - 0.5 + su, v as f64 - 0.5 + sv);
+                    let Ok(x) = camera.undistort_pixel(&px) else {
+                        continue;
+                    };
+                    let dir = pose.rotation * Vector3::new(x.x, x.y, 1.0);
                     let o = pose.translation.vector;
                     // Distance of the ray to the wire line (along x).
                     let wire_o = Vector3::new(0.0, wire_y, wire_z);

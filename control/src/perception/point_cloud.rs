@@ -1,16 +1,10 @@
 //! Depth image -> 3D points with plumb_bob undistortion; surface normals from the organised
 //! image; `sensor_msgs/PointCloud2` output.
 //!
-//! # Camera model (plumb_bob = OpenCV's 5-parameter Brown-Conrady)
-//! A point `(X, Y, Z)` in the optical frame projects to normalised `x = X/Z, y = Y/Z`,
-//! `r² = x² + y²`, then
-//! `x_d = x (1 + k1 r² + k2 r⁴ + k3 r⁶) + 2 p1 x y + p2 (r² + 2 x²)`,
-//! `y_d = y (1 + k1 r² + k2 r⁴ + k3 r⁶) + p1 (r² + 2 y²) + 2 p2 x y`,
-//! `u = fx x_d + cx`, `v = fy y_d + cy` (ROS `CameraInfo.D = [k1, k2, p1, p2, k3]`,
-//! `K = [fx 0 cx; 0 fy cy; 0 0 1]`). Undistortion inverts this per pixel by the fixed-point
-//! iteration OpenCV's `undistortPoints` uses (`x <- (x_d - tangential(x)) / radial(x)`),
-//! converging for the small distortion of the wrist camera; the result is cached in a
-//! [`RayTable`] (one normalised ray per pixel), so a capture costs one multiply per pixel:
+//! # Camera model
+//! The one camera model of `robot::camera` ([`CameraModel`], pinhole + plumb_bob, from
+//! `CameraInfo`). Undistortion is solved once per camera and cached in a [`RayTable`] (one
+//! normalised ray per pixel), so a capture costs one multiply per pixel:
 //! `p = z (x_n, y_n, 1)` with `z` the depth-image value (z, not range).
 //!
 //! # Normals
@@ -21,177 +15,23 @@
 //! points, or a plane-fit eigenvalue ratio showing a line) yield no normal.
 
 use super::PerceptionError;
-use msgs::sensor_msgs::{CameraInfo, Image, PointCloud2, PointField};
+use msgs::sensor_msgs::{Image, PointCloud2, PointField};
 use msgs::std_msgs::Header;
-use nalgebra::{Matrix3, Point3, SymmetricEigen, Vector3};
+use nalgebra::{Matrix3, Point2, Point3, SymmetricEigen, Vector3};
+pub use robot::camera::CameraModel;
 
-/// Fixed-point iterations of the undistortion (OpenCV uses 5 by default; 10 reaches 1e-10 px
-/// for |k1| < 0.2 at the image corners).
-pub const UNDISTORT_ITERATIONS: usize = 10;
 /// Physical half-size of the normal window on the surface (m): 2.5 mm.
 pub const NORMAL_WINDOW_M: f64 = 0.0025;
 /// Minimum valid points in a normal window.
 pub const NORMAL_MIN_POINTS: usize = 6;
 
-/// Pinhole camera with plumb_bob distortion.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PinholeCamera {
-    /// Image width (px).
-    pub width: u32,
-    /// Image height (px).
-    pub height: u32,
-    /// Focal length x (px).
-    pub fx: f64,
-    /// Focal length y (px).
-    pub fy: f64,
-    /// Principal point x (px).
-    pub cx: f64,
-    /// Principal point y (px).
-    pub cy: f64,
-    /// `[k1, k2, p1, p2, k3]`.
-    pub distortion: [f64; 5],
-}
-
-impl PinholeCamera {
-    /// The wrist camera of ARCHITECTURE.md section 6: 1280x1024, fx = fy = 1745 px, centred, small
-    /// distortion `k1 = -0.05, k2 = 0.02, p1 = 0.0005, p2 = -0.0003, k3 = 0`.
-    #[must_use]
-    pub fn wrist_nominal() -> Self {
-        Self {
-            width: 1280,
-            height: 1024,
-            fx: 1745.0,
-            fy: 1745.0,
-            cx: 639.5,
-            cy: 511.5,
-            distortion: [-0.05, 0.02, 0.0005, -0.0003, 0.0],
-        }
-    }
-
-    /// From a `CameraInfo` (`plumb_bob`, or empty D = no distortion).
-    ///
-    /// # Errors
-    /// [`PerceptionError::BadCamera`] for a zero size, non-positive or non-finite focal
-    /// lengths, or another distortion model.
-    pub fn from_camera_info(info: &CameraInfo) -> Result<Self, PerceptionError> {
-        let [fx, _, cx, _, fy, cy, ..] = info.k;
-        let bad = |reason| PerceptionError::BadCamera {
-            reason,
-            width: info.width,
-            height: info.height,
-            fx,
-            fy,
-        };
-        let mut distortion = [0.0; 5];
-        match info.distortion_model.as_str() {
-            "plumb_bob" | "rational_polynomial" | "" => {
-                if info.distortion_model == "rational_polynomial"
-                    && info.d.iter().skip(5).any(|k| *k != 0.0)
-                {
-                    return Err(bad("rational_polynomial with k4..k6 != 0 is not supported"));
-                }
-                for (slot, value) in distortion.iter_mut().zip(&info.d) {
-                    *slot = *value;
-                }
-            }
-            _ => return Err(bad("unsupported distortion model")),
-        }
-        let camera = Self {
-            width: info.width,
-            height: info.height,
-            fx,
-            fy,
-            cx,
-            cy,
-            distortion,
-        };
-        camera.validate()?;
-        Ok(camera)
-    }
-
-    /// The `CameraInfo` of this camera (plumb_bob, R = I, P = [K | 0]).
-    #[must_use]
-    pub fn to_camera_info(&self, header: Header) -> CameraInfo {
-        CameraInfo {
-            header,
-            height: self.height,
-            width: self.width,
-            distortion_model: "plumb_bob".to_owned(),
-            d: self.distortion.to_vec(),
-            k: [self.fx, 0.0, self.cx, 0.0, self.fy, self.cy, 0.0, 0.0, 1.0],
-            r: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
-            p: [
-                self.fx, 0.0, self.cx, 0.0, 0.0, self.fy, self.cy, 0.0, 0.0, 0.0, 1.0, 0.0,
-            ],
-            ..CameraInfo::default()
-        }
-    }
-
-    /// # Errors
-    /// [`PerceptionError::BadCamera`] when unusable.
-    fn validate(&self) -> Result<(), PerceptionError> {
-        let bad = |reason| PerceptionError::BadCamera {
-            reason,
-            width: self.width,
-            height: self.height,
-            fx: self.fx,
-            fy: self.fy,
-        };
-        if self.width == 0 || self.height == 0 {
-            return Err(bad("zero image size"));
-        }
-        if !(self.fx > 0.0 && self.fy > 0.0 && self.fx.is_finite() && self.fy.is_finite()) {
-            return Err(bad("focal lengths must be positive and finite"));
-        }
-        if !(self.cx.is_finite()
-            && self.cy.is_finite()
-            && self.distortion.iter().all(|k| k.is_finite()))
-        {
-            return Err(bad("non-finite principal point or distortion"));
-        }
-        Ok(())
-    }
-
-    /// Applies the plumb_bob distortion to normalised coordinates.
-    #[must_use]
-    pub fn distort(&self, x: f64, y: f64) -> (f64, f64) {
-        let [k1, k2, p1, p2, k3] = self.distortion;
-        let r2 = x * x + y * y;
-        let radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
-        (
-            x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x),
-            y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y,
-        )
-    }
-
-    /// Normalised undistorted coordinates `(x, y)` of pixel `(u, v)` (fixed-point inversion,
-    /// [`UNDISTORT_ITERATIONS`] steps).
-    #[must_use]
-    pub fn undistort_pixel(&self, u: f64, v: f64) -> (f64, f64) {
-        let [k1, k2, p1, p2, k3] = self.distortion;
-        let xd = (u - self.cx) / self.fx;
-        let yd = (v - self.cy) / self.fy;
-        let (mut x, mut y) = (xd, yd);
-        for _ in 0..UNDISTORT_ITERATIONS {
-            let r2 = x * x + y * y;
-            let radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
-            let dx = 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
-            let dy = p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
-            x = (xd - dx) / radial;
-            y = (yd - dy) / radial;
-        }
-        (x, y)
-    }
-
-    /// Pixel `(u, v)` of a camera-frame point, `None` behind the camera (z <= 0).
-    #[must_use]
-    pub fn project(&self, p_in_camera: &Point3<f64>) -> Option<(f64, f64)> {
-        if p_in_camera.z <= 0.0 {
-            return None;
-        }
-        let (xd, yd) = self.distort(p_in_camera.x / p_in_camera.z, p_in_camera.y / p_in_camera.z);
-        Some((self.fx * xd + self.cx, self.fy * yd + self.cy))
-    }
+/// The wrist camera's nominal intrinsics (ARCHITECTURE.md section 6): 1280x1024,
+/// fx = fy = 1745 px, centred, small distortion `k1 = -0.05, k2 = 0.02, p1 = 0.0005,
+/// p2 = -0.0003, k3 = 0`.
+#[must_use]
+pub fn wrist_nominal() -> CameraModel {
+    CameraModel::pinhole(1280, 1024, 1745.0, 1745.0, 639.5, 511.5)
+        .with_distortion([-0.05, 0.02, 0.0005, -0.0003, 0.0])
 }
 
 /// The pixel rows of `image` (each `width * bytes_per_pixel` bytes), once its step and
@@ -229,18 +69,20 @@ pub struct RayTable {
 }
 
 impl RayTable {
-    /// Undistorts every pixel centre of `camera`.
+    /// Undistorts every pixel centre of `camera` (Newton from the left neighbour's solution).
     ///
     /// # Errors
-    /// [`PerceptionError::BadCamera`] when the camera is unusable.
-    pub fn new(camera: &PinholeCamera) -> Result<Self, PerceptionError> {
+    /// [`PerceptionError::Camera`] when the camera is unusable or its distortion cannot be
+    /// inverted at a pixel.
+    pub fn new(camera: &CameraModel) -> Result<Self, PerceptionError> {
         camera.validate()?;
         let (width, height) = (camera.width as usize, camera.height as usize);
         let mut rays = Vec::with_capacity(width * height);
         for v in 0..height {
+            let mut guess = camera.undistort_pixel(&Point2::new(0.0, v as f64))?;
             for u in 0..width {
-                let (x, y) = camera.undistort_pixel(u as f64, v as f64);
-                rays.push([x, y]);
+                guess = camera.undistort_pixel_from(&Point2::new(u as f64, v as f64), &guess)?;
+                rays.push([guess.x, guess.y]);
             }
         }
         Ok(Self {
@@ -468,17 +310,21 @@ mod tests {
     use super::*;
 
     #[test]
-    fn undistort_inverts_distort() {
-        let cam = PinholeCamera::wrist_nominal();
-        for &(x, y) in &[(0.0, 0.0), (0.35, -0.28), (-0.36, 0.29), (0.1, 0.2)] {
-            let (xd, yd) = cam.distort(x, y);
-            let (u, v) = (cam.fx * xd + cam.cx, cam.fy * yd + cam.cy);
-            let (xu, yu) = cam.undistort_pixel(u, v);
+    fn ray_table_rays_project_back_to_their_pixels() -> Result<(), PerceptionError> {
+        let cam = wrist_nominal().scaled(0.1)?;
+        let table = RayTable::new(&cam)?;
+        for (u, v) in [(0, 0), (127, 0), (0, 101), (127, 101), (60, 40)] {
+            let [x, y] = table.ray(u, v).ok_or(PerceptionError::Camera(
+                robot::camera::CameraError::NonFinite { index: u },
+            ))?;
+            let px = cam.pixel_from_normalised(&Point2::new(x, y));
             assert!(
-                (xu - x).abs() < 1e-10 && (yu - y).abs() < 1e-10,
-                "{x} {y} -> {xu} {yu}"
+                (px - Point2::new(u as f64, v as f64)).norm() < 1e-9,
+                "{u} {v} -> {px}"
             );
         }
+        assert_eq!(table.ray(128, 0), None);
+        Ok(())
     }
 
     #[test]

@@ -9,7 +9,7 @@
 //! itself is then found geometrically ([`super::cylinder`]), which replaces the paper's LA-Net.
 
 use super::PerceptionError;
-use super::point_cloud::{DepthImage, PinholeCamera, RayTable};
+use super::point_cloud::{CameraModel, DepthImage, RayTable};
 use nalgebra::{Isometry3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
 /// A pixel rectangle `[u_min, u_max) x [v_min, v_max)` and a depth window `[z_min, z_max]`.
@@ -32,7 +32,7 @@ pub struct PixelRoi {
 impl PixelRoi {
     /// The whole image with a depth window.
     #[must_use]
-    pub fn full(camera: &PinholeCamera, z_min_m: f64, z_max_m: f64) -> Self {
+    pub fn full(camera: &CameraModel, z_min_m: f64, z_max_m: f64) -> Self {
         Self {
             u_min: 0,
             v_min: 0,
@@ -50,7 +50,7 @@ impl PixelRoi {
     /// # Errors
     /// [`PerceptionError::Degenerate`] when no part of the segment projects into the image.
     pub fn around_segment(
-        camera: &PinholeCamera,
+        camera: &CameraModel,
         p0_in_camera: &Point3<f64>,
         p1_in_camera: &Point3<f64>,
         margin_px: f64,
@@ -61,9 +61,10 @@ impl PixelRoi {
         let (mut z0, mut z1) = (f64::MAX, f64::MIN);
         for k in 0..=32 {
             let p = p0_in_camera + (p1_in_camera - p0_in_camera) * (f64::from(k) / 32.0);
-            let Some((u, v)) = camera.project(&p) else {
+            let Some(px) = camera.project(&p) else {
                 continue;
             };
+            let (u, v) = (px.x, px.y);
             if !(u > -margin_px && u < w + margin_px && v > -margin_px && v < h + margin_px) {
                 continue;
             }

@@ -16,8 +16,8 @@
 //! known radius, antialiased, through a distorted pinhole camera.
 
 use super::WIRE_RADIUS_M;
-use super::point_cloud::{DepthImage, PinholeCamera, RayTable};
-use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use super::point_cloud::{CameraModel, DepthImage, RayTable, wrist_nominal};
+use nalgebra::{Isometry3, Point2, Point3, Translation3, UnitQuaternion, Vector3};
 use rng::SplitMix64;
 
 /// Luminance of the wire in [`render_wire_rgb`] (of 255).
@@ -273,7 +273,7 @@ impl WireScene {
 /// # Errors
 /// Never for the nominal camera; kept fallible for the signature of [`RayTable::new`].
 pub fn wrist_rays() -> Result<RayTable, super::PerceptionError> {
-    RayTable::new(&PinholeCamera::wrist_nominal())
+    RayTable::new(&wrist_nominal())
 }
 
 /// A uniformly distributed unit vector (a normalised Gaussian triple) from `rng`.
@@ -293,7 +293,7 @@ pub fn unit_vector(rng: &mut rng::SplitMix64) -> nalgebra::Vector3<f64> {
 /// samples per pixel; only in front of the camera).
 #[must_use]
 pub fn render_wire_rgb(
-    camera: &PinholeCamera,
+    camera: &CameraModel,
     world_from_camera: &Isometry3<f64>,
     wire: Option<(Point3<f64>, Vector3<f64>)>,
     radius_m: f64,
@@ -307,8 +307,11 @@ pub fn render_wire_rgb(
             if let Some((point, direction)) = wire {
                 let axis = direction.normalize();
                 for (su, sv) in [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)] {
-                    let (x, y) = camera.undistort_pixel(u as f64 - 0.5 + su, v as f64 - 0.5 + sv);
-                    let ray = world_from_camera.rotation * Vector3::new(x, y, 1.0);
+                    let px = Point2::new(u as f64 - 0.5 + su, v as f64 - 0.5 + sv);
+                    let Ok(x) = camera.undistort_pixel(&px) else {
+                        continue;
+                    };
+                    let ray = world_from_camera.rotation * Vector3::new(x.x, x.y, 1.0);
                     let normal = ray.cross(&axis);
                     let Some(n) = normal.try_normalize(1e-12) else {
                         continue;

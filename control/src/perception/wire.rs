@@ -27,7 +27,7 @@ use super::PerceptionError;
 use super::colour::{LumaImage, axis_extent, limb_contrast};
 use super::confidence::{Confidence, ConfidenceThresholds, QualityMetrics, assess};
 use super::cylinder::{Cylinder, CylinderFit, RansacParams, fit_cylinder};
-use super::point_cloud::{DepthImage, PinholeCamera, RayTable};
+use super::point_cloud::{CameraModel, DepthImage, RayTable};
 use super::roi::{PixelRoi, canonical_axis_sign, extract_roi};
 use msgs::geometry_msgs::PoseStamped;
 use msgs::std_msgs::Header;
@@ -148,7 +148,7 @@ impl WireObservation {
     /// Measures how well `colour` (registered to the depth image, model `camera`) shows the
     /// fitted silhouette over the inliers' extent ([`super::colour::limb_contrast`]).
     #[must_use]
-    pub fn confirm_in_colour(mut self, colour: &LumaImage, camera: &PinholeCamera) -> Self {
+    pub fn confirm_in_colour(mut self, colour: &LumaImage, camera: &CameraModel) -> Self {
         let cylinder = &self.fit.cylinder;
         let contrast = axis_extent(cylinder, &self.inlier_points)
             .and_then(|extent| limb_contrast(colour, camera, cylinder, extent))

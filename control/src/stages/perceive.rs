@@ -54,7 +54,7 @@ use crate::perception::PerceptionError;
 use crate::perception::colour::PendingColour;
 use crate::perception::confidence::ConfidenceThresholds;
 use crate::perception::panoramic::{PanoramicParams, WirePrior};
-use crate::perception::point_cloud::{DepthImage, PinholeCamera, RayTable};
+use crate::perception::point_cloud::{CameraModel, DepthImage, RayTable};
 use crate::perception::wire::{self, WireParams};
 use crate::stages::wire_flow::{
     LookPolicy, PanoramicOutcome, WireFlow, WireFlowParams, WristCapture, time_ns,
@@ -192,8 +192,8 @@ pub struct PerceiveStage {
     collision: ArmCollisionModel,
     ik: ArmIk,
     tf: TfBuffer,
-    panoramic_camera: Option<PinholeCamera>,
-    wrist_camera: Option<(PinholeCamera, RayTable)>,
+    panoramic_camera: Option<CameraModel>,
+    wrist_camera: Option<(CameraModel, RayTable)>,
     flow: WireFlow,
     q: Option<([f64; 6], bool)>,
     lift_m: f64,
@@ -268,7 +268,7 @@ impl PerceiveStage {
         if self.phase != Phase::Panoramic || log_time < self.config.panoramic_at {
             return Vec::new();
         }
-        let Some(camera) = self.panoramic_camera.clone() else {
+        let Some(camera) = self.panoramic_camera else {
             return Vec::new();
         };
         let (level, text) = match self
@@ -555,11 +555,11 @@ impl Stage for PerceiveStage {
                 Vec::new()
             }
             (PANORAMIC_INFO, Msg::CameraInfo(info)) => {
-                self.panoramic_camera = PinholeCamera::from_camera_info(info).ok();
+                self.panoramic_camera = CameraModel::from_camera_info(info).ok();
                 Vec::new()
             }
             (CAMERA_COLOR_INFO, Msg::CameraInfo(info)) => {
-                let camera = PinholeCamera::from_camera_info(info).ok();
+                let camera = CameraModel::from_camera_info(info).ok();
                 let same =
                     matches!((&self.wrist_camera, &camera), (Some((a, _)), Some(b)) if a == b);
                 if !same {

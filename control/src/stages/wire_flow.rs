@@ -36,7 +36,7 @@ use robot::TfBuffer;
 use crate::perception::colour::LumaImage;
 use crate::perception::confidence::ConfidenceThresholds;
 use crate::perception::panoramic::{self, PanoramicParams, PanoramicWire, RgbView, WirePrior};
-use crate::perception::point_cloud::{DepthImage, PinholeCamera, RayTable, to_point_cloud2};
+use crate::perception::point_cloud::{CameraModel, DepthImage, RayTable, to_point_cloud2};
 use crate::perception::roi::{PixelRoi, wrist_look_pose};
 use crate::perception::wire::{self, WireEstimate, WireObservation, WireParams};
 use crate::perception::{PerceptionError, WIRE_RADIUS_M};
@@ -182,7 +182,7 @@ impl WireFlow {
     pub fn fix_from_panoramic(
         &mut self,
         tf: &TfBuffer,
-        camera: Option<&PinholeCamera>,
+        camera: Option<&CameraModel>,
         image: Option<&Image>,
     ) -> PanoramicOutcome {
         match self.find_in_panoramic(tf, camera, image) {
@@ -208,7 +208,7 @@ impl WireFlow {
     fn find_in_panoramic(
         &self,
         tf: &TfBuffer,
-        camera: Option<&PinholeCamera>,
+        camera: Option<&CameraModel>,
         image: Option<&Image>,
     ) -> Result<PanoramicWire, String> {
         let image = image.ok_or("no panoramic frame")?;
@@ -302,7 +302,7 @@ impl WireFlow {
     pub fn observe(
         &mut self,
         capture: &WristCapture,
-        camera: &PinholeCamera,
+        camera: &CameraModel,
         rays: &RayTable,
         camera_from_f: &Isometry3<f64>,
         prior_in_f: &(Point3<f64>, Vector3<f64>),
@@ -378,6 +378,7 @@ pub fn time_ns(t: &Time) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::perception::point_cloud::wrist_nominal;
     use crate::perception::synthetic::{NoiseModel, WireScene, render_wire_rgb, wrist_rays};
     use crate::tasks::site::SiteMap;
     use msgs::builtin_interfaces::Time;
@@ -386,7 +387,7 @@ mod tests {
 
     /// The default bay's working spot: odometry and the panoramic mast in a buffer, and the
     /// panoramic camera (640x360, ~115 deg).
-    fn at_the_spot(site: &SiteMap) -> (TfBuffer, PinholeCamera) {
+    fn at_the_spot(site: &SiteMap) -> (TfBuffer, CameraModel) {
         let model = robot::RobotModel::nominal();
         let mut tf = TfBuffer::default();
         let inserted = tf
@@ -399,21 +400,14 @@ mod tests {
                 )
             });
         assert_eq!(inserted, Ok(()));
-        let camera = PinholeCamera {
-            width: 640,
-            height: 360,
-            fx: 260.0,
-            fy: 260.0,
-            cx: 319.5,
-            cy: 179.5,
-            distortion: [-0.12, 0.01, 0.0, 0.0, 0.0],
-        };
+        let camera = CameraModel::pinhole(640, 360, 260.0, 260.0, 319.5, 179.5)
+            .with_distortion([-0.12, 0.01, 0.0, 0.0, 0.0]);
         (tf, camera)
     }
 
     fn frame(
         site: &SiteMap,
-        camera: &PinholeCamera,
+        camera: &CameraModel,
         wire: Option<(Point3<f64>, Vector3<f64>)>,
     ) -> Image {
         let model = robot::RobotModel::nominal();
@@ -501,7 +495,7 @@ mod tests {
     fn captures_of_the_wire_fuse_into_the_hanging_point_and_a_capture_without_it_is_refused()
     -> Result<(), PerceptionError> {
         let rays = wrist_rays()?;
-        let camera = PinholeCamera::wrist_nominal();
+        let camera = wrist_nominal();
         let scene = WireScene::random(11);
         let prior = (scene.wire.centre, scene.wire.direction);
         let mut flow = WireFlow::new(WireFlowParams::default());

@@ -56,8 +56,8 @@ use nalgebra::{Isometry3, Matrix3, Point3, Vector3};
 use rayon::prelude::*;
 
 pub use camera_model::{
-    CameraError, CameraIntrinsics, RAY_TILE, RayTable, RayTile, unit_direction,
-    world_from_camera_looking_at,
+    CameraError, CameraModel, RAY_TILE, RayTable, RayTile, panoramic_camera, unit_direction,
+    world_from_camera_looking_at, wrist_camera,
 };
 pub use depth_sensor::{DepthSensorParams, depth_to_mm};
 pub use light::LightConditions;
@@ -204,7 +204,7 @@ impl RgbdFrame {
 pub fn render_rgbd(
     scene: &Scene,
     world_from_camera: &Isometry3<f64>,
-    intrinsics: &CameraIntrinsics,
+    intrinsics: &CameraModel,
     light: &LightConditions,
     sensor: &SensorParams,
     seed: u64,
@@ -849,7 +849,7 @@ pub fn render_rgbd_with_rays(
 pub fn raycast_depth(
     scene: &Scene,
     world_from_camera: &Isometry3<f64>,
-    intrinsics: &CameraIntrinsics,
+    intrinsics: &CameraModel,
     u: f64,
     v: f64,
 ) -> Result<Option<f64>, RenderError> {
@@ -862,7 +862,8 @@ pub fn raycast_depth(
             height: intrinsics.height,
         });
     }
-    let xy = intrinsics.undistort(u, v)?;
+    let xy = intrinsics.undistort_pixel(&nalgebra::Point2::new(u, v))?;
+    let xy = [xy.x, xy.y];
     let cam = Cam {
         r: world_from_camera.rotation.to_rotation_matrix().into_inner(),
         origin: Point3::from(world_from_camera.translation.vector),
@@ -884,7 +885,7 @@ mod tests {
     /// exact undistortion to far below a pixel, including at the image border.
     #[test]
     fn interpolated_subsample_rays_match_undistortion() {
-        let k = CameraIntrinsics::wrist();
+        let k = wrist_camera();
         let Ok(rays) = RayTable::new(&k) else {
             panic!("ray table");
         };
@@ -902,11 +903,12 @@ mod tests {
                 let Some(xy) = interpolate_rays(rays.normalized(), w, h, col, row, off) else {
                     panic!("interpolation");
                 };
-                let Ok(exact) = k.undistort(col as f64 + off[0], row as f64 + off[1]) else {
+                let px = nalgebra::Point2::new(col as f64 + off[0], row as f64 + off[1]);
+                let Ok(exact) = k.undistort_pixel(&px) else {
                     panic!("undistort");
                 };
-                worst = worst.max((xy[0] - exact[0]).abs() * k.fx);
-                worst = worst.max((xy[1] - exact[1]).abs() * k.fy);
+                worst = worst.max((xy[0] - exact.x).abs() * k.fx);
+                worst = worst.max((xy[1] - exact.y).abs() * k.fy);
             }
         }
         assert!(worst < 1e-3, "worst error {worst} px");
@@ -921,7 +923,7 @@ mod tests {
         let Ok((scene, layout)) = SubstationBuilder::new(1).build() else {
             panic!("substation builds");
         };
-        let Ok(k) = CameraIntrinsics::wrist().scaled(0.25) else {
+        let Ok(k) = wrist_camera().scaled(0.25) else {
             panic!("scaled camera");
         };
         let Some(pose) = layout.cabinet_wrist_view() else {
@@ -962,7 +964,7 @@ mod tests {
         let Ok((scene, layout)) = SubstationBuilder::new(3).build() else {
             panic!("substation builds");
         };
-        let Ok(k) = CameraIntrinsics::wrist().scaled(0.125) else {
+        let Ok(k) = wrist_camera().scaled(0.125) else {
             panic!("scaled camera");
         };
         let Ok(rays) = RayTable::new(&k) else {

@@ -69,8 +69,8 @@ use image::GrayImage;
 use nalgebra::{Isometry3, Matrix3, Point2, Point3, UnitQuaternion, Vector3};
 use serde::Serialize;
 use sim::render::{
-    CameraIntrinsics, LightConditions, RayTable, SensorParams, render_rgbd_with_rays,
-    world_from_camera_looking_at,
+    LightConditions, RayTable, SensorParams, render_rgbd_with_rays, world_from_camera_looking_at,
+    wrist_camera,
 };
 
 use super::progress::Progress;
@@ -438,13 +438,13 @@ mod tests {
     #[test]
     fn depth_truth_projects_and_checks_occlusion() {
         // Camera B is A moved 0.1 m along -x (so points move right in B by f * 0.1 / z).
-        let camera = CameraIntrinsics {
+        let camera = CameraModel {
             k1: 0.0,
             k2: 0.0,
             p1: 0.0,
             p2: 0.0,
             k3: 0.0,
-            ..CameraIntrinsics::wrist()
+            ..wrist_camera()
         }
         .scaled(0.125)
         .expect("camera");

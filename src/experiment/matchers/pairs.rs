@@ -21,7 +21,7 @@ pub(super) fn sim_pairs(
     let (scene, layout) = sim::scene::SubstationBuilder::new(SIM_SCENE_SEED)
         .build()
         .context("building the simulated substation")?;
-    let camera = CameraIntrinsics::wrist()
+    let camera = wrist_camera()
         .scaled(settings.image_scale)
         .context("scaling the wrist camera")?;
     let rays = RayTable::new(&camera).context("ray table")?;

@@ -18,7 +18,7 @@ pub enum Verdict {
 #[derive(Clone, Debug)]
 pub struct DepthTruth {
     /// The wrist camera (both views).
-    pub camera: CameraIntrinsics,
+    pub camera: CameraModel,
     /// Noise-free depth of A along z, metres (NaN = none), row-major.
     pub depth_a: Vec<f32>,
     /// Same for B.
@@ -76,9 +76,10 @@ impl DepthTruth {
 
     pub(super) fn judge(&self, a: (f64, f64), b: (f64, f64)) -> Verdict {
         let (w, h) = (self.camera.width, self.camera.height);
-        let Ok([nx, ny]) = self.camera.undistort(a.0, a.1) else {
+        let Ok(n) = self.camera.undistort_pixel(&Point2::new(a.0, a.1)) else {
             return Verdict::Unjudged;
         };
+        let (nx, ny) = (n.x, n.y);
         let (cu, cv) = (a.0.round() as i64, a.1.round() as i64);
         let mut judged = false;
         for dv in -1..=1 {
@@ -91,9 +92,10 @@ impl DepthTruth {
                 if p_b.z <= 0.0 {
                     continue;
                 }
-                let Some([u, v]) = self.camera.project(&p_b) else {
+                let Some(px) = self.camera.project(&p_b) else {
                     continue;
                 };
+                let (u, v) = (px.x, px.y);
                 let (ui, vi) = (u.round() as i64, v.round() as i64);
                 let Some(zb) = Self::depth(&self.depth_b, w, h, ui, vi) else {
                     // Outside B or sky there: the point is not visible in B.

@@ -15,7 +15,7 @@ use super::action::{AT_REST_RAD_S, BASE_STILL_M, BASE_STILL_RAD, CLAMP_REST_M_S}
 use super::config::TaskConfig;
 use super::flow::Stop;
 use crate::perception::colour::PendingColour;
-use crate::perception::point_cloud::{PinholeCamera, RayTable};
+use crate::perception::point_cloud::{CameraModel, RayTable};
 use crate::tasks::safety::WindGate;
 use crate::tasks::site::BasePose;
 
@@ -29,9 +29,9 @@ pub(crate) struct RobotState {
     /// The wind gate, fed by `/env/wind`.
     pub gate: WindGate,
     /// The wrist camera and its ray table.
-    pub wrist: Option<(PinholeCamera, RayTable)>,
+    pub wrist: Option<(CameraModel, RayTable)>,
     /// The panoramic camera.
-    pub panoramic_camera: Option<PinholeCamera>,
+    pub panoramic_camera: Option<CameraModel>,
     /// Arm joints (rad), once all six were reported finite.
     pub q: Option<[f64; 6]>,
     /// Every arm joint slower than [`AT_REST_RAD_S`] in the latest arm state.
@@ -153,12 +153,12 @@ impl RobotState {
 
     /// `/panoramic/camera_info`.
     pub fn on_panoramic_info(&mut self, info: &CameraInfo) {
-        self.panoramic_camera = PinholeCamera::from_camera_info(info).ok();
+        self.panoramic_camera = CameraModel::from_camera_info(info).ok();
     }
 
     /// `/camera/color/camera_info`: the ray table is rebuilt only when the camera changes.
     pub fn on_wrist_info(&mut self, info: &CameraInfo) {
-        let camera = PinholeCamera::from_camera_info(info).ok();
+        let camera = CameraModel::from_camera_info(info).ok();
         let same = matches!((&self.wrist, &camera), (Some((a, _)), Some(b)) if a == b);
         if !same {
             self.wrist = camera.and_then(|c| RayTable::new(&c).ok().map(|r| (c, r)));

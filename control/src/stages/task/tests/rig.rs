@@ -37,7 +37,7 @@ use robot::grounding_rod::{
 use robot::robot_state::{RobotStateConfig, RobotStateStage};
 
 use crate::perception::WIRE_RADIUS_M;
-use crate::perception::point_cloud::{PinholeCamera, RayTable};
+use crate::perception::point_cloud::{CameraModel, RayTable, wrist_nominal};
 use crate::perception::synthetic::{
     self, CylinderShape, NoiseModel, Scene, render_depth, render_wire_rgb,
 };
@@ -153,9 +153,9 @@ pub struct Rig {
     lift_m: f64,
     clamp_m: f64,
     base: BasePose,
-    wrist: PinholeCamera,
+    wrist: CameraModel,
     rays: RayTable,
-    panoramic: PinholeCamera,
+    panoramic: CameraModel,
     trigger: bool,
     /// `check` or `calibrate` once a batch began.
     calibration_mode: Option<&'static str>,
@@ -167,30 +167,23 @@ pub struct Rig {
 }
 
 /// The wrist camera at a quarter of its resolution (320x256), as the tests' simulator runs.
-fn small_wrist() -> PinholeCamera {
-    let c = PinholeCamera::wrist_nominal();
-    PinholeCamera {
-        width: 320,
-        height: 256,
-        fx: c.fx * 0.25,
-        fy: c.fy * 0.25,
-        cx: (c.cx + 0.5) * 0.25 - 0.5,
-        cy: (c.cy + 0.5) * 0.25 - 0.5,
-        distortion: c.distortion,
-    }
+fn small_wrist() -> CameraModel {
+    let c = wrist_nominal();
+    CameraModel::pinhole(
+        320,
+        256,
+        c.fx * 0.25,
+        c.fy * 0.25,
+        (c.cx + 0.5) * 0.25 - 0.5,
+        (c.cy + 0.5) * 0.25 - 0.5,
+    )
+    .with_distortion(c.distortion())
 }
 
 /// The panoramic camera: 640x360, ~115 deg wide, barrel distortion.
-fn panoramic_camera() -> PinholeCamera {
-    PinholeCamera {
-        width: 640,
-        height: 360,
-        fx: 260.0,
-        fy: 260.0,
-        cx: 319.5,
-        cy: 179.5,
-        distortion: [-0.12, 0.01, 0.0, 0.0, 0.0],
-    }
+fn panoramic_camera() -> CameraModel {
+    CameraModel::pinhole(640, 360, 260.0, 260.0, 319.5, 179.5)
+        .with_distortion([-0.12, 0.01, 0.0, 0.0, 0.0])
 }
 
 /// `map_from_rod` of a rod hung by the hang flow on the site's prior wire, the base at its
