@@ -1,5 +1,5 @@
 //! `rodlog calib self` end to end on the simulator: `record --scenario calib-18` with the
-//! arm perturbation and encoder noise switched off, then self-calibration from the
+//! arm perturbation, encoder noise and camera_info error switched off, then self-calibration from the
 //! recording's images, depth and /tf only. The estimate is compared with the simulator's
 //! true mount (`/sim/camera_mount`, read here by the test, never by the pipeline): the
 //! issue's bar is < 0.02 deg and < 0.2 mm. The true mount is asymmetric (t = (60, -35, 90)
@@ -46,6 +46,8 @@ fn self_calibration_on_clean_calib18_recovers_the_true_mount() {
         "robot.perturbation=false",
         "--set",
         "robot.encoder_noise=false",
+        "--set",
+        "camera.info_error=false",
         "--out",
         &rec_s,
     ]);

@@ -56,6 +56,8 @@ fn ours_beats_the_opencv_peer_on_a_small_clean_calib18() {
         "--set",
         "robot.encoder_noise=false",
         "--set",
+        "camera.info_error=false",
+        "--set",
         "camera.scale=0.5",
         "--out",
         &rec_s,

@@ -65,6 +65,11 @@ pub const ENV_ILLUMINANCE: &str = "/env/illuminance";
 pub const ROSOUT: &str = "/rosout";
 /// Simulator truth: `tool0_from_camera`.
 pub const SIM_CAMERA_MOUNT: &str = "/sim/camera_mount";
+/// Simulator truth: the wrist camera's true intrinsics (the published `camera_info` is a
+/// calibration of them, with a calibration's error).
+pub const SIM_CAMERA_INFO: &str = "/sim/camera_info";
+/// Simulator truth: the panoramic camera's true intrinsics.
+pub const SIM_PANORAMIC_INFO: &str = "/sim/panoramic/camera_info";
 /// Simulator truth: wire hanging-point pose.
 pub const SIM_WIRE_POSE: &str = "/sim/wire_pose";
 /// Simulator truth: clamp handle pose.
@@ -210,6 +215,12 @@ static REGISTRY: &[TopicSpec] = &[
         geometry_msgs::TransformStamped::TYPE_NAME,
         false,
     ),
+    spec(SIM_CAMERA_INFO, sensor_msgs::CameraInfo::TYPE_NAME, false),
+    spec(
+        SIM_PANORAMIC_INFO,
+        sensor_msgs::CameraInfo::TYPE_NAME,
+        false,
+    ),
     spec(SIM_WIRE_POSE, geometry_msgs::PoseStamped::TYPE_NAME, false),
     spec(
         SIM_HANDLE_POSE,
@@ -259,7 +270,7 @@ mod tests {
                 t.type_name
             );
         }
-        assert_eq!(reg.len(), 32);
+        assert_eq!(reg.len(), 34);
     }
 
     #[test]

@@ -122,6 +122,10 @@ pub struct CameraConfig {
     pub mount_xyz_m: [f64; 3],
     /// True mount rotation, roll-pitch-yaw (deg). Default [`DEFAULT_MOUNT_RPY_DEG`].
     pub mount_rpy_deg: [f64; 3],
+    /// The published `camera_info` is a calibration of the true intrinsics, with a real
+    /// calibration's error (`crate::cameras::calibrated`); false publishes the truth.
+    /// Default true.
+    pub info_error: bool,
 }
 
 /// Panoramic camera settings.
@@ -131,6 +135,8 @@ pub struct PanoramicConfig {
     pub period_s: f64,
     /// Resolution factor of 640x360. Default 0.5.
     pub scale: f64,
+    /// As [`CameraConfig::info_error`], for the panoramic camera. Default true.
+    pub info_error: bool,
 }
 
 /// Default arm pose at t = 0 (rad): elbow up, tool pointing forward and slightly down.
@@ -362,6 +368,11 @@ impl SimConfig {
                 "deg",
                 "true tool0_from_camera roll, pitch, yaw at t = 0",
             )?,
+            info_error: c.bool(
+                "info_error",
+                true,
+                "the published camera_info carries a calibration's error (fx, fy ~0.3%, principal point ~2 px, distortion); false publishes the true intrinsics (accuracy tests of the hand-eye alone)",
+            )?,
         };
 
         let mut p = r.section("panoramic");
@@ -382,6 +393,11 @@ impl SimConfig {
         let panoramic = PanoramicConfig {
             period_s,
             scale: p.f64_in("scale", 0.5, 0.01..=2.0, "", "resolution factor of 640x360")?,
+            info_error: p.bool(
+                "info_error",
+                true,
+                "the published panoramic camera_info carries a calibration's error; false publishes the truth",
+            )?,
         };
         Ok(Self {
             seed,

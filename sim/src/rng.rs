@@ -29,6 +29,10 @@ pub mod streams {
     pub const WRIST_CAMERA: u64 = 10;
     /// Panoramic camera render seeds.
     pub const PANORAMIC_CAMERA: u64 = 11;
+    /// The wrist camera's intrinsic calibration error (the published `camera_info`).
+    pub const WRIST_CALIBRATION: u64 = 12;
+    /// The panoramic camera's intrinsic calibration error.
+    pub const PANORAMIC_CALIBRATION: u64 = 13;
 }
 
 #[cfg(test)]

@@ -4,6 +4,8 @@
 //! | topic | type | rate | content |
 //! |---|---|---|---|
 //! | `/sim/camera_mount` | TransformStamped | 1 Hz and at the bump | true `tool0_from_camera` (`tool0` -> `camera_color_optical_frame`) |
+//! | `/sim/camera_info` | CameraInfo | with every wrist capture | the wrist camera's true intrinsics (the published `/camera/color/camera_info` is a calibration of them, `camera.info_error`) |
+//! | `/sim/panoramic/camera_info` | CameraInfo | with every panoramic image | the panoramic camera's true intrinsics |
 //! | `/sim/wire_pose` | PoseStamped (`map`) | 10 Hz | hanging point: the target conductor's axis at the robot's working spot (x = span position), `x` along the wire, `z` perpendicular and up; includes sway |
 //! | `/sim/handle_pose` | PoseStamped (`map`) | 10 Hz | rod handle: origin on the rod axis halfway up the handle, rod axes |
 //! | `/sim/wind` | Float64 | 1 Hz | true 3-s mean wind (m/s) |

@@ -470,6 +470,10 @@ impl SimWorld {
                     ready,
                 );
             }
+            let truth = self
+                .wrist
+                .intrinsics()
+                .to_camera_info(c.camera_info.header.clone());
             self.push(
                 CAMERA_DRIVER,
                 topics::CAMERA_COLOR_INFO,
@@ -477,6 +481,7 @@ impl SimWorld {
                 now,
                 ready,
             );
+            self.push(SIM, topics::SIM_CAMERA_INFO, truth.into(), now, ready);
         }
         if ns.is_multiple_of(JOINT_STATE_PERIOD_NS) {
             let a = self.arm.joint_state(now)?;
@@ -567,6 +572,10 @@ impl SimWorld {
             let pose = self.base.map_from_base() * self.model.base_from_panoramic_optical;
             let light = light_at(self.config.hour, now);
             let (img, info) = self.panoramic.capture(&self.scene, &pose, &light, now)?;
+            let truth = self
+                .panoramic
+                .intrinsics()
+                .to_camera_info(info.header.clone());
             let at = now + PANORAMIC_LATENCY;
             self.push(
                 PANORAMIC_DRIVER,
@@ -582,6 +591,7 @@ impl SimWorld {
                 at,
                 at,
             );
+            self.push(SIM, topics::SIM_PANORAMIC_INFO, truth.into(), at, at);
         }
         Ok(())
     }

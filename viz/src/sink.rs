@@ -20,7 +20,7 @@
 //! | `matches/image`, `matches/inliers`, `matches/rejected` | `/calibration/matches` + the wrist images at `stamp_a`, `stamp_b` | `EncodedImage` (side by side), `LineStrips2D` (green / red) |
 //! | `plots/...` | wind, illuminance (measured and truth), joint positions, calibration residuals and sigmas, lift command | `Scalars` (+ `SeriesLines` names) |
 //! | `events/task` | `/task/event` | `StateChange` (`task/state`): lanes in the state timeline |
-//! | `log/{rosout,task,calibration,commands,sim}` | `/rosout`, `/task/event`, `/calibration/hand_eye`, command topics, `/sim/rod_state` | `TextLog` |
+//! | `log/{rosout,task,calibration,commands,sim}` | `/rosout`, `/task/event`, `/calibration/hand_eye`, command topics, `/sim/rod_state`, `/sim/camera_info`, `/sim/panoramic/camera_info` (the true intrinsics, on change) | `TextLog` |
 //! | `recording/metadata` | MCAP metadata records | `TextDocument` (markdown) |
 //! | `recording/whatif`, `log/whatif` | a what-if file's `whatif` record (`rodlog replay --out`) | `TextDocument` (static banner), `TextLog` WARN at the open-loop time |
 //!
@@ -198,6 +198,8 @@ pub struct Viz {
     camera_edge: Option<Pose>,
     urdf_hash: Option<u64>,
     rod_state: Option<String>,
+    /// The last true intrinsics logged per camera topic (`/sim/...camera_info`).
+    true_intrinsics: Vec<(&'static str, [f64; 4])>,
     site: Option<Site>,
     rod: Option<RodBelief>,
     task_state: Option<String>,
@@ -464,6 +466,7 @@ impl Viz {
             camera_edge: None,
             urdf_hash: None,
             rod_state: None,
+            true_intrinsics: Vec::new(),
             site: None,
             rod: None,
             task_state: None,
@@ -992,6 +995,28 @@ impl Viz {
                 self.rec.log(
                     "log/sim",
                     &TextLog::new(format!("rod {}", s.data)).with_level(rerun::TextLogLevel::INFO),
+                )?;
+            }
+            (t::SIM_CAMERA_INFO | t::SIM_PANORAMIC_INFO, Msg::CameraInfo(info)) => {
+                // Sent with every capture; the log shows the first and any change.
+                let key: &'static str = if topic == t::SIM_CAMERA_INFO {
+                    "wrist"
+                } else {
+                    "panoramic"
+                };
+                let k = [info.k[0], info.k[4], info.k[2], info.k[5]];
+                if self.true_intrinsics.contains(&(key, k)) {
+                    return Ok(true);
+                }
+                self.true_intrinsics.retain(|(c, _)| *c != key);
+                self.true_intrinsics.push((key, k));
+                self.rec.log(
+                    "log/sim",
+                    &TextLog::new(format!(
+                        "true {key} intrinsics: fx {:.2} fy {:.2} cx {:.2} cy {:.2} px, D {:?} (the published camera_info is a calibration of them)",
+                        k[0], k[1], k[2], k[3], info.d
+                    ))
+                    .with_level(rerun::TextLogLevel::INFO),
                 )?;
             }
             // /clock carries nothing to draw (the timeline is the robot clock already).

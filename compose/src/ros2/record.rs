@@ -38,7 +38,7 @@ use crate::world::World;
 
 /// The rodlog topics `record --ros2` subscribes to (under their vendor names where a remap
 /// routes them): what drivers publish, and the simulator's truth.
-pub const GRAPH_INPUTS: [&str; 17] = [
+pub const GRAPH_INPUTS: [&str; 19] = [
     topics::JOINT_STATES,
     topics::TF,
     topics::TF_STATIC,
@@ -50,6 +50,8 @@ pub const GRAPH_INPUTS: [&str; 17] = [
     topics::ENV_WIND,
     topics::ENV_ILLUMINANCE,
     topics::SIM_CAMERA_MOUNT,
+    topics::SIM_CAMERA_INFO,
+    topics::SIM_PANORAMIC_INFO,
     topics::SIM_WIRE_POSE,
     topics::SIM_HANDLE_POSE,
     topics::SIM_WIND,
