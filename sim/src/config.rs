@@ -167,6 +167,20 @@ pub struct SimConfig {
     pub camera: CameraConfig,
     /// Panoramic camera.
     pub panoramic: PanoramicConfig,
+    /// The bay's geometry: the fixed default bay, or one drawn from the seed.
+    pub site_layout: SiteLayout,
+}
+
+/// Which bay the world builds (scenario `site.layout`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SiteLayout {
+    /// The default bay of [`crate::scene::SubstationParams::default`] (the committed golden
+    /// recordings, and every run the robot's built-in site map describes exactly).
+    Fixed,
+    /// A bay drawn from the seed ([`crate::scene::SubstationParams::seeded`]): conductor
+    /// height and sag, phase spacing, the working position along the span and beside the
+    /// phase, the cabinet and rack placements.
+    Seeded,
 }
 
 fn invalid(key: &str, value: impl std::fmt::Display, reason: impl Into<String>) -> ParamError {
@@ -399,9 +413,23 @@ impl SimConfig {
                 "the published panoramic camera_info carries a calibration's error; false publishes the truth",
             )?,
         };
+        let site_layout = match r
+            .section("site")
+            .choice(
+                "layout",
+                "fixed",
+                &["fixed", "seeded"],
+                "the bay: the fixed default bay, or one drawn from the seed (conductor height, sag, phase spacing, working position, cabinet and rack placement)",
+            )?
+            .as_str()
+        {
+            "seeded" => SiteLayout::Seeded,
+            _ => SiteLayout::Fixed,
+        };
         Ok(Self {
             seed,
             duration_s,
+            site_layout,
             hour,
             wind,
             bump,

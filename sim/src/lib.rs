@@ -38,7 +38,7 @@ pub mod scene;
 pub mod truth;
 pub mod world;
 
-pub use config::SimConfig;
+pub use config::{SimConfig, SiteLayout};
 pub use world::SimWorld;
 
 /// Errors of the simulator.

@@ -33,6 +33,8 @@ pub mod streams {
     pub const WRIST_CALIBRATION: u64 = 12;
     /// The panoramic camera's intrinsic calibration error.
     pub const PANORAMIC_CALIBRATION: u64 = 13;
+    /// The seeded site's geometry (`site.layout = "seeded"`).
+    pub const SITE: u64 = 14;
 }
 
 #[cfg(test)]

@@ -67,7 +67,7 @@ use crate::config::{RodStart, SimConfig};
 use crate::environment::{ANEMOMETER, EnvironmentSim, LUX_METER, Wind, light_at};
 use crate::lift::{LIFT_DRIVER, LiftSim};
 use crate::rod::{Rod, RodInputs, RodState};
-use crate::scene::{Scene, SubstationBuilder, SubstationLayout};
+use crate::scene::{Scene, SubstationBuilder, SubstationLayout, SubstationParams};
 use crate::truth::{HANDLE_CENTER_IN_ROD_M, SIM, hanging_point, pose_stamped};
 
 /// Joint-state period (100 Hz).
@@ -148,7 +148,11 @@ impl SimWorld {
     /// Scene, camera or scenario errors.
     pub fn new(scenario: &SimConfig) -> Result<Self, SimError> {
         let seed = scenario.seed;
-        let (scene, layout) = SubstationBuilder::new(seed).build()?;
+        let params = match scenario.site_layout {
+            crate::config::SiteLayout::Fixed => SubstationParams::default(),
+            crate::config::SiteLayout::Seeded => SubstationParams::seeded(seed),
+        };
+        let (scene, layout) = SubstationBuilder::new(seed).params(params).build()?;
         let model = RobotModel::nominal();
         let r = &scenario.robot;
         let true_dh = perturbed_dh(&model.dh, seed, r.perturbation);

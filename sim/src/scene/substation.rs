@@ -83,6 +83,14 @@ pub struct SubstationParams {
     /// Lateral offset of the robot's working spot from the middle phase (m, towards -y).
     /// Default 1.3.
     pub robot_offset_m: f64,
+    /// Position of the working spot along the span, from mid-span (m, +x). Default 0.
+    pub work_position_m: f64,
+    /// Shift of the calibration cabinet cluster (cabinet, junction box, cable tray) from its
+    /// design place beside the working spot (m, `[x, y]`). Default 0.
+    pub cabinet_shift_m: [f64; 2],
+    /// Shift of the rod rack from its place beside the working spot (m, `[x, y]`) and its
+    /// yaw error (rad). Default 0.
+    pub rack_shift: [f64; 3],
 }
 
 impl Default for SubstationParams {
@@ -95,6 +103,72 @@ impl Default for SubstationParams {
             string_length_m: 2.6,
             sag_m: 0.8,
             robot_offset_m: 1.3,
+            work_position_m: 0.0,
+            cabinet_shift_m: [0.0; 2],
+            rack_shift: [0.0; 3],
+        }
+    }
+}
+
+/// Half widths of the seeded site's draws around the default bay ([`SubstationParams::seeded`]),
+/// each uniform in `default +- half width`.
+pub mod seeded_ranges {
+    /// Mid-span sag (m): 0.8 m +- 20%, the sag's change between -20 and +80 C conductor
+    /// temperature for strained bus spans (5-20%, up to more for slack spans; IEC 60865-2
+    /// examples) and the erection tolerance.
+    pub const SAG_M: f64 = 0.16;
+    /// Height of the attachment points (m): the gantry's foundation top (+13 / -50 mm, ACI
+    /// 117), its lean (<= 1/500 of the height, AISC 303) and the insulator string's length.
+    pub const ATTACH_HEIGHT_M: f64 = 0.05;
+    /// Phase spacing (m): the bay's design (the default 4.5 m is above the 500 kV phase-phase
+    /// minimum A2 = 4.3 m of DL/T 5352 only in the scaled bay; strung buses use 6.5-8 m) is
+    /// fixed, the string attachments vary by a few cm.
+    pub const PHASE_SPACING_M: f64 = 0.05;
+    /// Where along the span the work happens (m from mid-span).
+    pub const WORK_POSITION_M: f64 = 1.5;
+    /// Lateral offset of the working spot from the phase (m): where the crew can park.
+    pub const ROBOT_OFFSET_M: f64 = 0.1;
+    /// Cabinet cluster position, each axis (m): foundation placement tolerance (+-50 mm,
+    /// ACI 117 for footings).
+    pub const CABINET_SHIFT_M: f64 = 0.05;
+    /// Rack position, each axis (m): placed by the crew beside the robot.
+    pub const RACK_SHIFT_M: f64 = 0.04;
+    /// Rack yaw (deg).
+    pub const RACK_YAW_DEG: f64 = 4.0;
+}
+
+impl SubstationParams {
+    /// A bay drawn from `seed` (stream [`crate::rng::streams::SITE`]): every value of
+    /// [`seeded_ranges`] uniform around the default bay. The ground stays level (a yard's
+    /// 0.5-2% drainage slope is not modelled).
+    #[must_use]
+    pub fn seeded(seed: u64) -> Self {
+        use seeded_ranges as r;
+        let d = Self::default();
+        let mut i = 0;
+        let mut draw = |centre: f64, half: f64| {
+            i += 1;
+            crate::rng::uniform_in(
+                seed,
+                crate::rng::streams::SITE,
+                i,
+                centre - half,
+                centre + half,
+            )
+        };
+        Self {
+            sag_m: draw(d.sag_m, r::SAG_M),
+            attach_height_m: draw(d.attach_height_m, r::ATTACH_HEIGHT_M),
+            phase_spacing_m: draw(d.phase_spacing_m, r::PHASE_SPACING_M),
+            work_position_m: draw(0.0, r::WORK_POSITION_M),
+            robot_offset_m: draw(d.robot_offset_m, r::ROBOT_OFFSET_M),
+            cabinet_shift_m: [draw(0.0, r::CABINET_SHIFT_M), draw(0.0, r::CABINET_SHIFT_M)],
+            rack_shift: [
+                draw(0.0, r::RACK_SHIFT_M),
+                draw(0.0, r::RACK_SHIFT_M),
+                draw(0.0, r::RACK_YAW_DEG).to_radians(),
+            ],
+            ..d
         }
     }
 }
@@ -237,6 +311,21 @@ impl SubstationBuilder {
             0.5,
             p.phase_spacing_m - 0.5,
         )?;
+        check(
+            "work_position_m",
+            p.work_position_m,
+            -p.span_m / 4.0,
+            p.span_m / 4.0,
+        )?;
+        for (name, v) in [
+            ("cabinet_shift_m", p.cabinet_shift_m[0]),
+            ("cabinet_shift_m", p.cabinet_shift_m[1]),
+            ("rack_shift", p.rack_shift[0]),
+            ("rack_shift", p.rack_shift[1]),
+            ("rack_shift", p.rack_shift[2]),
+        ] {
+            check(name, v, -0.5, 0.5)?;
+        }
         let mut dice = Dice {
             state: hash_u32((self.seed as u32) ^ hash_u32((self.seed >> 32) as u32)),
         };
@@ -369,13 +458,18 @@ impl SubstationBuilder {
         );
 
         // Calibration scene next to the robot spot, the rack and the rod.
-        let x_robot = p.span_m / 2.0;
+        let x_robot = p.span_m / 2.0 + p.work_position_m;
         let world_from_robot_spot = Isometry3::from_parts(
             Translation3::new(x_robot, y_robot, 0.0),
             UnitQuaternion::from_axis_angle(&Vector3::z_axis(), std::f64::consts::FRAC_PI_2),
         );
-        let (calib_center, calib_normal) =
-            calibration_cabinet(&mut b, &m, x_robot + 1.35, y_robot, &mut dice);
+        let (calib_center, calib_normal) = calibration_cabinet(
+            &mut b,
+            &m,
+            x_robot + 1.35 + p.cabinet_shift_m[0],
+            y_robot + p.cabinet_shift_m[1],
+            &mut dice,
+        );
         // The rack stands beside the working spot on a pedestal, in the arm's reach with the
         // lift lowered (0.85 m from the base centre, on its left and a little behind), its
         // rod's hook opening facing away from the base so the gripper reaches the handle from
@@ -385,8 +479,12 @@ impl SubstationBuilder {
         let rack_yaw =
             world_from_robot_spot.rotation.euler_angles().2 + rack_in_base.y.atan2(rack_in_base.x);
         let world_from_rack = Isometry3::from_parts(
-            Translation3::new(rack_position.x, rack_position.y, RACK_PEDESTAL_M),
-            UnitQuaternion::from_axis_angle(&Vector3::z_axis(), rack_yaw),
+            Translation3::new(
+                rack_position.x + p.rack_shift[0],
+                rack_position.y + p.rack_shift[1],
+                RACK_PEDESTAL_M,
+            ),
+            UnitQuaternion::from_axis_angle(&Vector3::z_axis(), rack_yaw + p.rack_shift[2]),
         );
         grounding_rod::add_rack(&mut b, &world_from_rack);
         let world_from_rod_stored = world_from_rack * rack_from_rod();
@@ -1006,6 +1104,74 @@ fn calibration_cabinet(
 mod tests {
     use super::*;
     use crate::scene::Ray;
+
+    /// The target conductor's point at the working spot's span position, in the spot's frame
+    /// (the robot starts there).
+    fn wire_from_spot(l: &SubstationLayout) -> Option<Point3<f64>> {
+        let c = l.target_conductor()?;
+        let u = l.world_from_robot_spot.translation.x - c.start.x;
+        Some(l.world_from_robot_spot.inverse() * c.point_at(u))
+    }
+
+    /// Seeded bays differ where the robot works (the wire moves by 3 cm or more relative to
+    /// its start between two seeds), every draw stays in its stated range and the ranges are
+    /// used; the default is the fixed bay.
+    #[test]
+    fn seeded_sites_vary_within_their_ranges() -> Result<(), SubstationError> {
+        use seeded_ranges as r;
+        let d = SubstationParams::default();
+        let (_, fixed) = SubstationBuilder::new(3).build()?;
+        let w_fixed = wire_from_spot(&fixed).ok_or(SubstationError::Parameter {
+            name: "wire",
+            value: 0.0,
+            min: 0.0,
+            max: 0.0,
+        })?;
+        let mut wires = Vec::new();
+        let (mut sag_lo, mut sag_hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for seed in 0..40 {
+            let p = SubstationParams::seeded(seed);
+            assert!((p.sag_m - d.sag_m).abs() <= r::SAG_M);
+            assert!((p.attach_height_m - d.attach_height_m).abs() <= r::ATTACH_HEIGHT_M);
+            assert!((p.phase_spacing_m - d.phase_spacing_m).abs() <= r::PHASE_SPACING_M);
+            assert!(p.work_position_m.abs() <= r::WORK_POSITION_M);
+            assert!((p.robot_offset_m - d.robot_offset_m).abs() <= r::ROBOT_OFFSET_M);
+            assert!(
+                p.cabinet_shift_m
+                    .iter()
+                    .all(|v| v.abs() <= r::CABINET_SHIFT_M)
+            );
+            assert!(p.rack_shift[2].abs() <= r::RACK_YAW_DEG.to_radians());
+            assert_eq!(
+                p,
+                SubstationParams::seeded(seed),
+                "a pure function of the seed"
+            );
+            (sag_lo, sag_hi) = (sag_lo.min(p.sag_m), sag_hi.max(p.sag_m));
+            if seed < 6 {
+                let (_, l) = SubstationBuilder::new(seed).params(p).build()?;
+                if let Some(w) = wire_from_spot(&l) {
+                    wires.push(w);
+                }
+            }
+        }
+        assert!(sag_hi - sag_lo > r::SAG_M, "sag {sag_lo}..{sag_hi}");
+        assert_eq!(wires.len(), 6);
+        let mut pairs: Vec<f64> = Vec::new();
+        for (i, a) in wires.iter().enumerate() {
+            assert!(
+                (a - w_fixed).norm() > 1e-3,
+                "seed {i}: {a} vs fixed {w_fixed}"
+            );
+            pairs.extend(wires[i + 1..].iter().map(|b| (a - b).norm()));
+        }
+        pairs.sort_by(f64::total_cmp);
+        let median = pairs[pairs.len() / 2];
+        eprintln!("wire vs start between seeds: {pairs:.3?} m (median {median:.3})");
+        assert!(pairs.iter().all(|d| *d > 1e-3));
+        assert!(median >= 0.03, "median {median} m between two seeds");
+        Ok(())
+    }
 
     #[test]
     fn same_seed_same_scene_and_conductor_is_where_the_catenary_says() -> Result<(), SubstationError>
