@@ -111,3 +111,77 @@ fn tasks_split_in_two_and_merged_equals_one_run() {
         without_timing(&tmp.path().join("merged/results.json"))
     );
 }
+
+/// `experiment wind --speeds` and `experiment light --hours` run only the listed conditions;
+/// a listed value of the experiment's own list keeps its trials (seeds); a flag for the other
+/// experiment, a value out of range or given twice is refused before anything runs.
+#[test]
+fn wind_speeds_and_light_hours_choose_the_conditions() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_rodlog"))
+            .args(args)
+            .output()
+            .expect("run rodlog")
+    };
+    let out = tmp.path().join("wind");
+    let out_s = out.display().to_string();
+    let ok = run(&[
+        "experiment",
+        "wind",
+        "--speeds",
+        "3.0",
+        "--trials",
+        "1",
+        "--out",
+        &out_s,
+    ]);
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let results: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).expect("json"))
+            .expect("results.json parses");
+    assert_eq!(
+        results["parameters"]["speeds_mps"],
+        serde_json::json!([3.0]),
+        "{results}"
+    );
+    let groups = results["sections"]["groups"].as_array().expect("groups");
+    assert_eq!(groups.len(), 1, "{results}");
+    assert_eq!(results["sections"]["unsafe_commands"], 0, "{results}");
+    // 3.0 m/s is the 9th speed of the own list: the same seed as a run without --speeds.
+    let own_seed = results["seeds"][0].as_u64().expect("seed");
+    assert_eq!(results["seeds"].as_array().map(Vec::len), Some(1));
+    // (The experiments' rule: world seed = key(--seed, 200 + index of the speed, trial)
+    // with the sign bit cleared.)
+    let expected = sim::rng::key(1, 200 + 8, 0) & (i64::MAX as u64);
+    assert_eq!(own_seed, expected);
+    for (args, needle) in [
+        (
+            vec!["experiment", "light", "--speeds", "1"],
+            "--speeds is an option of `rodlog experiment wind` only",
+        ),
+        (
+            vec!["experiment", "wind", "--hours", "18"],
+            "--hours is an option of `rodlog experiment light` only",
+        ),
+        (
+            vec!["experiment", "light", "--hours", "25"],
+            "--hours: 25 is outside [0, 24]",
+        ),
+        (
+            vec!["experiment", "wind", "--speeds", "2,2"],
+            "--speeds: 2 is given twice",
+        ),
+    ] {
+        let bad = run(&args);
+        let err = String::from_utf8_lossy(&bad.stderr);
+        assert!(
+            !bad.status.success() && err.contains(needle),
+            "{args:?}: {err}"
+        );
+    }
+}

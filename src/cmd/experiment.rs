@@ -78,6 +78,37 @@ pub struct ExperimentOptions {
     /// strongest corners).
     #[arg(long, value_enum, default_value_t = super::calib::Distribution::Quadtree)]
     pub orb_distribution: super::calib::Distribution,
+    /// `wind` only: the mean wind speeds to run (m/s, comma-separated, e.g. `2.5,3.0`)
+    /// instead of the experiment's own list; a speed of the own list keeps its trials.
+    #[arg(long, value_delimiter = ',', value_name = "LIST")]
+    #[serde(default)]
+    pub speeds: Option<Vec<f64>>,
+    /// `light` only: the local solar hours to run (comma-separated, e.g. `18.5,19`) instead
+    /// of the experiment's own list; an hour of the own list keeps its trials.
+    #[arg(long, value_delimiter = ',', value_name = "LIST")]
+    #[serde(default)]
+    pub hours: Option<Vec<f64>>,
+}
+
+/// A `--speeds` / `--hours` list: non-empty, every value finite within `range`, no value
+/// twice.
+fn check_list(flag: &str, values: &[f64], range: std::ops::RangeInclusive<f64>) -> Result<()> {
+    if values.is_empty() {
+        bail!("{flag}: give at least one value");
+    }
+    for (i, v) in values.iter().enumerate() {
+        if !(v.is_finite() && range.contains(v)) {
+            bail!(
+                "{flag}: {v} is outside [{}, {}]",
+                range.start(),
+                range.end()
+            );
+        }
+        if values[..i].contains(v) {
+            bail!("{flag}: {v} is given twice");
+        }
+    }
+    Ok(())
 }
 
 /// Arguments of `rodlog experiment`.
@@ -158,6 +189,17 @@ fn run_named(
     if options.trials == Some(0) {
         bail!("--trials must be at least 1");
     }
+    match (&options.speeds, &options.hours) {
+        (Some(_), _) if name != ExperimentName::Wind => {
+            bail!("--speeds is an option of `rodlog experiment wind` only")
+        }
+        (_, Some(_)) if name != ExperimentName::Light => {
+            bail!("--hours is an option of `rodlog experiment light` only")
+        }
+        (Some(speeds), _) => check_list("--speeds", speeds, 0.0..=40.0)?,
+        (_, Some(hours)) => check_list("--hours", hours, 0.0..=24.0)?,
+        (None, None) => {}
+    }
     let settings = || -> Result<Settings> {
         Ok(Settings {
             name: name.name(),
@@ -166,6 +208,8 @@ fn run_named(
             image_scale: options.image_scale,
             reference: !options.no_reference,
             orb_distribution: options.orb_distribution.into(),
+            speeds_mps: options.speeds.clone(),
+            hours: options.hours.clone(),
             out: OutputDir::create(out)?,
             mode: mode.clone(),
             arguments: serde_json::to_string(options)?,

@@ -29,9 +29,10 @@ pub fn run(settings: &Settings) -> Result<()> {
     let camera_scale = super::tasks::CAMERA_SCALE * settings.image_scale;
     let mut specs = Vec::new();
     let mut seeds = Vec::new();
-    for (h, hour) in HOURS.iter().enumerate() {
+    let hours = Settings::sweep(settings.hours.as_deref(), &HOURS, 100);
+    for (hour, stream) in &hours {
         for t in 0..trials {
-            let seed = world_seed(trial_seed(settings.seed, 100 + h as u64, t as u64));
+            let seed = world_seed(trial_seed(settings.seed, *stream, t as u64));
             seeds.push(seed);
             specs.push(RunSpec {
                 condition: format!(
@@ -64,8 +65,9 @@ pub fn run(settings: &Settings) -> Result<()> {
     let lines = vec![
         viz::plots::Line {
             name: "success".into(),
-            points: HOURS
+            points: hours
                 .iter()
+                .map(|(h, _)| h)
                 .zip(&groups)
                 .map(|(h, g)| (*h, 100.0 * g.success_rate))
                 .collect(),
@@ -73,8 +75,9 @@ pub fn run(settings: &Settings) -> Result<()> {
         },
         viz::plots::Line {
             name: "refused".into(),
-            points: HOURS
+            points: hours
                 .iter()
+                .map(|(h, _)| h)
                 .zip(&groups)
                 .map(|(h, g)| (*h, 100.0 * g.refused as f64 / g.runs.max(1) as f64))
                 .collect(),
@@ -95,8 +98,9 @@ pub fn run(settings: &Settings) -> Result<()> {
         y_label: "time (s)".into(),
         series: vec![viz::plots::Line {
             name: "median".into(),
-            points: HOURS
+            points: hours
                 .iter()
+                .map(|(h, _)| h)
                 .zip(&groups)
                 .filter(|(_, g)| g.median_s.is_finite())
                 .map(|(h, g)| (*h, g.median_s))
@@ -109,7 +113,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     let mut json = Results::new("light", settings.seed);
     json.seeds = seeds;
     json.parameter("trials", trials)?;
-    json.parameter("hours", HOURS)?;
+    json.parameter("hours", hours.iter().map(|(h, _)| *h).collect::<Vec<f64>>())?;
     json.parameter("camera_scale", camera_scale)?;
     json.section("groups", &groups)?;
     settings.write_results(&json)?;

@@ -69,6 +69,10 @@ pub struct Settings {
     /// `--orb-distribution`: the ORB keypoint selection of our self-calibration in the
     /// calibration experiments (default the paper's quadtree).
     pub orb_distribution: calib::features::KeypointDistribution,
+    /// `--speeds`: the wind experiment's mean speeds (m/s), `None` for its own list.
+    pub speeds_mps: Option<Vec<f64>>,
+    /// `--hours`: the light experiment's hours, `None` for its own list.
+    pub hours: Option<Vec<f64>>,
     /// The output folder (created).
     pub out: OutputDir,
     /// All items, one shard of them, or the records of merged shards ([`shard`]).
@@ -81,6 +85,24 @@ impl Settings {
     /// `--trials` or the experiment's `default`, at least 1.
     pub fn trials_or(&self, default: usize) -> usize {
         self.trials.unwrap_or(default).max(1)
+    }
+
+    /// The conditions of a sweep: `given` (`--speeds`, `--hours`) or the experiment's `own`
+    /// list, each with the seed stream of its trials. A value of the own list keeps its
+    /// stream `base + index` (the same trials with or without the flag); any other value gets
+    /// a stream of its own from its millesimal value.
+    pub fn sweep(given: Option<&[f64]>, own: &[f64], base: u64) -> Vec<(f64, u64)> {
+        given
+            .unwrap_or(own)
+            .iter()
+            .map(|v| {
+                let stream = own
+                    .iter()
+                    .position(|o| o == v)
+                    .map_or(10_000 + (v * 1000.0).round() as u64, |k| base + k as u64);
+                (*v, stream)
+            })
+            .collect()
     }
 
     /// The records of the experiment's `items`, run as [`Settings::mode`] says
@@ -212,6 +234,21 @@ pub fn source_script(relative: &str) -> Option<PathBuf> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A value of the own list keeps its stream; other values get distinct streams of their
+    /// own, outside the own list's.
+    #[test]
+    fn sweeps_keep_the_own_lists_streams() {
+        let own = [0.0, 0.5, 2.5, 3.0];
+        assert_eq!(
+            Settings::sweep(None, &own, 200),
+            vec![(0.0, 200), (0.5, 201), (2.5, 202), (3.0, 203)]
+        );
+        let given = [3.0, 3.5, 4.0];
+        let s = Settings::sweep(Some(&given), &own, 200);
+        assert_eq!(s[0], (3.0, 203));
+        assert_eq!((s[1].1, s[2].1), (13_500, 14_000));
+    }
 
     #[test]
     fn trial_seeds_differ_and_are_stable() {

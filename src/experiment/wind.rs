@@ -25,11 +25,12 @@ pub const SPEEDS_MPS: [f64; 9] = [0.0, 0.5, 1.0, 1.5, 1.8, 2.0, 2.2, 2.5, 3.0];
 pub fn run(settings: &Settings) -> Result<()> {
     let trials = settings.trials_or(DEFAULT_TRIALS);
     let camera_scale = super::tasks::CAMERA_SCALE * settings.image_scale;
+    let speeds = Settings::sweep(settings.speeds_mps.as_deref(), &SPEEDS_MPS, 200);
     let mut specs = Vec::new();
     let mut seeds = Vec::new();
-    for (k, speed) in SPEEDS_MPS.iter().enumerate() {
+    for (speed, stream) in &speeds {
         for t in 0..trials {
-            let seed = world_seed(trial_seed(settings.seed, 200 + k as u64, t as u64));
+            let seed = world_seed(trial_seed(settings.seed, *stream, t as u64));
             seeds.push(seed);
             specs.push(RunSpec {
                 condition: format!("{speed:.1} m/s"),
@@ -80,8 +81,9 @@ pub fn run(settings: &Settings) -> Result<()> {
         series: vec![
             viz::plots::Line {
                 name: "success".into(),
-                points: SPEEDS_MPS
+                points: speeds
                     .iter()
+                    .map(|(s, _)| s)
                     .zip(&groups)
                     .map(|(s, g)| (*s, 100.0 * g.success_rate))
                     .collect(),
@@ -89,8 +91,9 @@ pub fn run(settings: &Settings) -> Result<()> {
             },
             viz::plots::Line {
                 name: "refused".into(),
-                points: SPEEDS_MPS
+                points: speeds
                     .iter()
+                    .map(|(s, _)| s)
                     .zip(&groups)
                     .map(|(s, g)| (*s, 100.0 * g.refused as f64 / g.runs.max(1) as f64))
                     .collect(),
@@ -103,7 +106,10 @@ pub fn run(settings: &Settings) -> Result<()> {
     let mut json = Results::new("wind", settings.seed);
     json.seeds = seeds;
     json.parameter("trials", trials)?;
-    json.parameter("speeds_mps", SPEEDS_MPS)?;
+    json.parameter(
+        "speeds_mps",
+        speeds.iter().map(|(s, _)| *s).collect::<Vec<f64>>(),
+    )?;
     json.parameter("camera_scale", camera_scale)?;
     json.section("groups", &groups)?;
     json.section("max_true_wind_at_command_mps", &max_wind)?;
