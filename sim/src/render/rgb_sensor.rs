@@ -19,6 +19,20 @@
 //! (shot noise `sqrt(e)` relative to `e` grows as `e` shrinks); beyond the gain limit the
 //! image darkens.
 //!
+//! # Dusk: why the image mean falls from ~109/255 at 18:00 to ~9/255 at 18:24
+//! That is the exposure running out, not a metering fault. The brightest the sensor can make
+//! a scene is `k_max = S t_max g_max / FW` = 60 x 0.1 s x 16 / 10 000 = 0.0096 per cd/m^2; the
+//! target mean needs a linear level of 0.171, i.e. a mean scene luminance of 17.8 cd/m^2: a
+//! grey (albedo 0.3) Lambertian scene under 186 lx. The renderer's daylight
+//! (`super::light`) sets at 18:00 (400 lx) and passes 186 lx at about 18:03; from there the
+//! mean follows the light, which drops 200x to the end of civil twilight (3 lx, sun 6 deg
+//! below the horizon) at 18:22: the model's elevation `62 deg sin(pi (h - 6) / 12)` sinks
+//! 16 deg/h at sunset, where a real equinox sun at the 28 deg latitude its 62 deg noon implies
+//! sinks 15 cos(28 deg) = 13 deg/h, so a real dusk lasts about a fifth longer.
+//! A longer exposure than 0.1 s blurs the structured-light capture and more gain only adds
+//! noise; the fix for dusk is light on the scene (a wrist light), not the metering. The test
+//! `auto_exposure_runs_out_three_minutes_after_sunset` pins the numbers.
+//!
 //! The normal deviates are Irwin-Hall sums of four 16-bit uniforms from one SplitMix64 draw,
 //! rescaled to unit variance (exact variance, tails truncated at 3.46 sigma): three orders of
 //! magnitude cheaper than Box-Muller and plenty for sensor noise.
@@ -509,6 +523,38 @@ mod tests {
                 assert_eq!(xc.to_bits(), want.to_bits(), "pixel {i} channel {c}");
             }
         }
+    }
+
+    /// The dusk numbers of the module docs: a grey scene (albedo 0.3) under the renderer's
+    /// daylight reaches the target mean at sunset (400 lx) and at 18:02 (257 lx) with gain
+    /// to spare, runs out of exposure and gain by 18:06 (106 lx), and at 18:24 (2 lx) the
+    /// mean is below 20/255.
+    #[test]
+    fn auto_exposure_runs_out_three_minutes_after_sunset() {
+        let p = RgbSensorParams::default();
+        let mean_at = |hour: f64| {
+            let lux = super::super::LightConditions::from_hour(hour).horizontal_lux();
+            let luminance = lux * 0.3 / std::f64::consts::PI;
+            let mut h = vec![0u64; HISTOGRAM_BINS];
+            h[histogram_bin(luminance as f32)] = 1;
+            let e = p.auto_exposure(&h);
+            let k = e.exposure_s * e.gain * p.sensitivity_e_per_nit_s / p.full_well_electrons;
+            (
+                lux,
+                e,
+                255.0 * srgb_encode(k * bin_center(histogram_bin(luminance as f32))),
+            )
+        };
+        let (lux, e, mean) = mean_at(18.0);
+        assert!((lux - 400.0).abs() < 1.0 && e.gain < p.max_gain);
+        assert!((mean - 255.0 * p.target_mean).abs() < 1.0, "{mean}");
+        let (_, e, _) = mean_at(18.0 + 2.0 / 60.0);
+        assert!(e.gain < p.max_gain, "{e:?}");
+        let (lux, e, mean) = mean_at(18.1);
+        assert!(lux < 190.0 && e.gain == p.max_gain && e.exposure_s == p.max_exposure_s);
+        assert!(mean < 255.0 * p.target_mean - 5.0, "{mean}");
+        let (lux, _, mean) = mean_at(18.4);
+        assert!(lux < 3.0 && mean < 20.0, "{lux} lx: {mean}");
     }
 
     #[test]
