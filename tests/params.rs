@@ -246,3 +246,102 @@ fn outputs_of_a_stage_the_pipeline_lacks_fail_the_check() -> TestResult {
     assert!(err.contains("/rosout from retired_stage (1)"), "{err}");
     Ok(())
 }
+
+/// `--site FILE` gives the task and perception the crew's survey as `survey.*` keys: listed
+/// by `rodlog params`, kept in the recording (a replay plans with it), strict (a site file
+/// with a typo or another table is refused by name), and a scenario file cannot carry one.
+#[test]
+fn a_site_file_is_the_surveys_only_way_in() -> TestResult {
+    let fixed = Path::new(env!("CARGO_MANIFEST_DIR")).join("config/sites/fixed_bay.toml");
+    let fixed_s = fixed.display().to_string();
+    let out = rodlog(&["params", "hang", "--site", &fixed_s])?;
+    assert!(out.status.success(), "{}", stderr(&out));
+    let listing = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        listing.contains("survey.cabinet.facing_deg") && listing.contains("= 180.0"),
+        "{listing}"
+    );
+
+    let dir = tempfile::tempdir()?;
+    let text = std::fs::read_to_string(&fixed)?;
+    let typo = dir.path().join("typo.toml");
+    std::fs::write(&typo, text.replace("yaw_deg = 90.0", "yaw_dg = 90.0"))?;
+    let out = rodlog(&["params", "hang", "--site", &typo.display().to_string()])?;
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("survey.work_spot.yaw_d"),
+        "{}",
+        stderr(&out)
+    );
+    let other = dir.path().join("other.toml");
+    std::fs::write(&other, format!("{text}\n[task]\nstandoff_m = 0.5\n"))?;
+    let out = rodlog(&["params", "hang", "--site", &other.display().to_string()])?;
+    assert!(
+        !out.status.success() && stderr(&out).contains("[survey.*] tables only"),
+        "{}",
+        stderr(&out)
+    );
+    let scenario = dir.path().join("with_survey.toml");
+    std::fs::write(
+        &scenario,
+        "name = \"s\"\nduration_s = 1.0\n[survey.wire]\npoint_m = [12.0, 0.0, 3.7]\n",
+    )?;
+    let out = rodlog(&["params", &scenario.display().to_string()])?;
+    assert!(
+        !out.status.success() && stderr(&out).contains("no site priors"),
+        "{}",
+        stderr(&out)
+    );
+
+    // Recorded with the survey, replayed from the recording alone.
+    // (A scenario without the task and perception refuses the survey as unused keys.)
+    let rec = dir.path().join("hang.mcap");
+    let rec_s = rec.display().to_string();
+    let out = rodlog(&[
+        "record",
+        "--scenario",
+        "arm_sweep",
+        "--site",
+        &fixed_s,
+        "--out",
+        &rec_s,
+    ])?;
+    assert!(
+        !out.status.success() && stderr(&out).contains("survey.wire.point_m"),
+        "{}",
+        stderr(&out)
+    );
+    let out = rodlog(&[
+        "record",
+        "--scenario",
+        "hang",
+        "--duration",
+        "4",
+        "--set",
+        "camera.scale=0.1",
+        "--site",
+        &fixed_s,
+        "--out",
+        &rec_s,
+    ])?;
+    assert!(out.status.success(), "{}", stderr(&out));
+    let reader = McapReader::open(&rec)?;
+    let scenario_record = reader
+        .metadata()
+        .iter()
+        .find(|m| m.name == "scenario")
+        .cloned()
+        .ok_or("no scenario record")?;
+    assert!(
+        scenario_record
+            .entries
+            .get("param.survey.rack.yaw_deg")
+            .is_some_and(|v| v.starts_with("200.556")),
+        "{:?}",
+        scenario_record.entries
+    );
+    drop(reader);
+    let out = rodlog(&["replay", &rec_s, "--check"])?;
+    assert!(out.status.success(), "{}", stderr(&out));
+    Ok(())
+}

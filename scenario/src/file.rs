@@ -54,6 +54,9 @@ pub const RESERVED_KEYS: [&str; 6] = [
 /// Longest run a scenario may ask for (s): one day of robot time.
 pub const MAX_DURATION_S: f64 = 86_400.0;
 
+/// The parameters' section a site file fills (`survey.*`).
+pub const SURVEY_KEY: &str = "survey";
+
 /// A scenario: what to run, for how long, with which seed, parameters and commands.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scenario {
@@ -131,6 +134,15 @@ impl Scenario {
             Some(toml::Value::Table(t)) => params.merge(&Params::from_table(t)),
             Some(_) => return Err(field("parameters", "must be a table")),
         }
+        if params
+            .keys()
+            .any(|k| k == SURVEY_KEY || k.starts_with(&format!("{SURVEY_KEY}.")))
+        {
+            return Err(field(
+                SURVEY_KEY,
+                "a scenario carries no site priors: the survey comes from a site file (--site FILE)",
+            ));
+        }
         let commands = Command::parse_all(origin, &table)?;
         Ok(Self {
             name,
@@ -189,6 +201,50 @@ impl Scenario {
             name: name_or_path.to_owned(),
             tried,
         })
+    }
+
+    /// Applies a site file (`--site FILE`): its `[survey.*]` tables become the `survey.*`
+    /// parameters (replacing any), which the task and perception configs read; the recording
+    /// keeps them with the other parameters, so a replay plans with the same survey.
+    ///
+    /// # Errors
+    /// [`ScenarioError::Read`], [`ScenarioError::Toml`], and [`ScenarioError::Field`] for a
+    /// file with anything but `[survey]` tables.
+    pub fn apply_site_file(&mut self, path: &Path) -> Result<(), ScenarioError> {
+        let origin = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let table = toml_table(&text, &origin)?;
+        match (
+            table.get(SURVEY_KEY),
+            table.keys().find(|k| *k != SURVEY_KEY),
+        ) {
+            (_, Some(other)) => Err(ScenarioError::Field {
+                origin,
+                field: other.clone(),
+                reason: "a site file holds [survey.*] tables only".to_owned(),
+            }),
+            (Some(toml::Value::Table(_)), None) => {
+                let old: Vec<String> = self
+                    .params
+                    .keys()
+                    .filter(|k| k.starts_with(&format!("{SURVEY_KEY}.")))
+                    .map(str::to_owned)
+                    .collect();
+                for k in old {
+                    self.params.remove(&k);
+                }
+                self.params.merge(&Params::from_table(&table));
+                Ok(())
+            }
+            _ => Err(ScenarioError::Field {
+                origin,
+                field: SURVEY_KEY.to_owned(),
+                reason: "missing: a site file is [survey.*] tables".to_owned(),
+            }),
+        }
     }
 
     /// Applies one `--set key=value`: `seed` and `duration_s` set the scenario's own fields,

@@ -26,6 +26,10 @@ pub struct DemoArgs {
     /// Override a parameter, `stage.key=value` or a world key (repeatable), as `record`.
     #[arg(long = "set", value_name = "K=V")]
     pub set: Vec<String>,
+    /// The crew's survey of the bay, a site file (`config/sites/*.toml`, ARCHITECTURE.md
+    /// section 6): what the robot plans with instead of the built-in fixed bay.
+    #[arg(long, value_name = "FILE")]
+    pub site: Option<PathBuf>,
     /// Skip the Rerun recording (faster).
     #[arg(long)]
     pub no_viz: bool,
@@ -36,7 +40,7 @@ pub struct DemoArgs {
 /// # Errors
 /// Scenario, simulation, recording and judging errors; a run that did not succeed.
 pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
-    let plan = super::record::plan("demo", args.seed, None, &args.set)?;
+    let plan = super::record::plan("demo", args.seed, None, &args.set, args.site.as_deref())?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let mcap = args.out.join("demo.mcap");

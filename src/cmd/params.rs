@@ -13,6 +13,10 @@ pub struct ParamsArgs {
     /// Override a parameter first, `stage.key=value` (repeatable).
     #[arg(long = "set", value_name = "K=V")]
     pub set: Vec<String>,
+    /// The crew's survey of the bay, a site file (`config/sites/*.toml`, ARCHITECTURE.md
+    /// section 6): what the robot plans with instead of the built-in fixed bay.
+    #[arg(long, value_name = "FILE")]
+    pub site: Option<std::path::PathBuf>,
     /// Also list the keys of parts this scenario does not build.
     #[arg(long)]
     pub all: bool,
@@ -23,7 +27,7 @@ pub struct ParamsArgs {
 
 /// Runs `rodlog params`.
 pub fn run(args: &ParamsArgs) -> anyhow::Result<()> {
-    let plan = super::record::plan(&args.scenario, None, None, &args.set)?;
+    let plan = super::record::plan(&args.scenario, None, None, &args.set, args.site.as_deref())?;
     let decls: Vec<&scenario::Decl> = plan
         .declarations()
         .iter()

@@ -46,6 +46,10 @@ pub struct RecordArgs {
     /// the keys).
     #[arg(long = "set", value_name = "K=V")]
     pub set: Vec<String>,
+    /// The crew's survey of the bay, a site file (`config/sites/*.toml`, ARCHITECTURE.md
+    /// section 6): what the robot plans with instead of the built-in fixed bay.
+    #[arg(long, value_name = "FILE")]
+    pub site: Option<PathBuf>,
     /// Output file (default: NAME.mcap in the current directory).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -81,7 +85,8 @@ pub fn compression(name: &str) -> anyhow::Result<ChunkCompression> {
     })
 }
 
-/// The scenario of `--scenario` with `--seed`, `--duration` and `--set` applied, composed.
+/// The scenario of `--scenario` with `--seed`, `--duration`, `--set` and `--site` (the
+/// survey, applied last) applied, composed.
 ///
 /// # Errors
 /// A scenario that cannot be found or read, a mistyped or unknown parameter.
@@ -90,6 +95,7 @@ pub fn plan(
     seed: Option<u64>,
     duration: Option<f64>,
     sets: &[String],
+    site: Option<&std::path::Path>,
 ) -> anyhow::Result<compose::Plan> {
     let (mut scenario, migrated) = compose::load_scenario(scenario)?;
     for m in &migrated {
@@ -103,6 +109,9 @@ pub fn plan(
     }
     for s in sets {
         scenario.set_from_arg(s)?;
+    }
+    if let Some(site) = site {
+        scenario.apply_site_file(site)?;
     }
     Ok(compose::Plan::new(&scenario)?)
 }
@@ -131,7 +140,13 @@ pub fn record_plan(args: &RecordArgs) -> anyhow::Result<compose::Plan> {
         }
     }
     sets.extend(args.set.iter().cloned());
-    plan(scenario, args.seed, args.duration, &sets)
+    plan(
+        scenario,
+        args.seed,
+        args.duration,
+        &sets,
+        args.site.as_deref(),
+    )
 }
 
 /// Where a recording goes, the same for every world.

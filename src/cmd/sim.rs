@@ -28,6 +28,10 @@ pub struct SimArgs {
     /// Override a parameter, `key=value` (repeatable).
     #[arg(long = "set", value_name = "K=V")]
     pub set: Vec<String>,
+    /// The crew's survey of the bay, a site file (`config/sites/*.toml`, ARCHITECTURE.md
+    /// section 6): what the robot plans with instead of the built-in fixed bay.
+    #[arg(long, value_name = "FILE")]
+    pub site: Option<std::path::PathBuf>,
     /// The ROS 2 domain (default: ROS_DOMAIN_ID, else 0).
     #[arg(long)]
     pub domain: Option<u16>,
@@ -54,7 +58,13 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         Some("subnet") => Some(DiscoveryRange::Subnet),
         Some(other) => bail!("--discovery {other:?}: expected localhost or subnet"),
     };
-    let plan = super::record::plan(&args.scenario, args.seed, args.duration, &args.set)?;
+    let plan = super::record::plan(
+        &args.scenario,
+        args.seed,
+        args.duration,
+        &args.set,
+        args.site.as_deref(),
+    )?;
     let options = SimNodeOptions {
         rate: args.rate,
         duration: plan.scenario().duration,

@@ -124,15 +124,18 @@ impl Default for PerceiveConfig {
 
 impl PerceiveConfig {
     /// Reads `perceive.*` through `r` (`panoramic_at_s`, `look_at_s`, `standoff_m`,
-    /// `captures`, `latency_ms`); other fields keep [`Default`]'s. The wire prior is the site
-    /// map's, never a scenario's.
+    /// `captures`, `latency_ms`); other fields keep [`Default`]'s. The wire prior is the
+    /// site map's (`survey.*`, [`crate::tasks::site::SiteMap::from_params`]), never a
+    /// scenario's.
     ///
     /// # Errors
     /// [`scenario::ParamError::Value`] for a wrong type or an out-of-range value.
     pub fn from_params(r: &mut scenario::Reader<'_>) -> Result<Self, scenario::ParamError> {
         let d = Self::default();
+        let prior_in_map = crate::tasks::site::SiteMap::from_params(r)?.wire;
         let mut s = r.section("perceive");
         Ok(Self {
+            prior_in_map,
             panoramic_at: s.time_s(
                 "panoramic_at_s",
                 RobotTime::ZERO,

@@ -5,6 +5,7 @@
 //! | module | holds |
 //! |---|---|
 //! | [`site`] | the site map: working spot, wire prior, rack, calibration target, obstacles |
+//! | [`survey`] | the crew's survey (`survey.*` keys, a site file) -> the site map |
 //! | [`poses`] | the flows' poses: hook goal, level look, grasp, hung rod from its handle |
 //! | [`calibration_views`] | wrist views of the calibration target (drift check, recalibration) |
 //! | [`safety`] | the wind gate (anemometer with its documented error) |
@@ -13,3 +14,4 @@ pub mod calibration_views;
 pub mod poses;
 pub mod safety;
 pub mod site;
+pub mod survey;

@@ -64,7 +64,8 @@ pub struct TaskConfig {
     /// The task starts at the first `/clock` at or after this. Default 1 s (the drivers'
     /// first samples, the URDF and the camera info are in by then).
     pub start_at: RobotTime,
-    /// What the robot knows of the site. Default [`SiteMap::default_bay`].
+    /// What the robot knows of the site: the parameters' `survey.*` ([`SiteMap::from_params`]),
+    /// default [`SiteMap::default_bay`].
     pub site: SiteMap,
     /// The robot model (nominal). Default [`RobotModel::nominal`].
     pub model: RobotModel,
@@ -174,6 +175,7 @@ impl TaskConfig {
         kind: TaskKind,
     ) -> Result<Self, scenario::ParamError> {
         let d = Self::default();
+        let site = SiteMap::from_params(r)?;
         let mut s = r.section("task");
         let mut wind = d.wind;
         wind.sigmas = s.f64(
@@ -196,6 +198,7 @@ impl TaskConfig {
         )?;
         Ok(Self {
             kind,
+            site,
             start_at: s.time_s(
                 "start_s",
                 d.start_at,
