@@ -45,6 +45,8 @@ enum Command {
     Check(cmd::check::CheckCommand),
     /// List every parameter a scenario's pipeline and world read: key, default, unit, value.
     Params(cmd::params::ParamsArgs),
+    /// The simulated crew's survey of a scenario's bay: a site file for `record --site`.
+    Survey(cmd::survey::SurveyArgs),
     /// Print a recording's text log (`/rosout`: stages, drivers, task events) in time order.
     Log(cmd::log::LogArgs),
 }
@@ -64,6 +66,7 @@ fn main() -> ExitCode {
         Command::Check(command) => cmd::check::run(&command),
         Command::Log(args) => cmd::log::run(&args),
         Command::Params(args) => cmd::params::run(&args),
+        Command::Survey(args) => cmd::survey::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -9,6 +9,7 @@
 //! | [`motion`] | speed/acceleration-limited axis tracking |
 //! | [`bump`], [`rod`], [`truth`] | camera-mount bump, grounding-rod tolerances and states, `/sim/...` truth |
 //! | [`rng`] | counter-based randomness (seed, stream, index) |
+//! | [`survey`] | the simulated crew's survey of the bay: a site file with a survey's error |
 //!
 //! # The driver seam
 //! The traits of [`msgs::drivers`] are where a real driver plugs in: an AUBO controller SDK
@@ -35,6 +36,7 @@ pub mod render;
 pub mod rng;
 pub mod rod;
 pub mod scene;
+pub mod survey;
 pub mod truth;
 pub mod world;
 

@@ -35,6 +35,8 @@ pub mod streams {
     pub const PANORAMIC_CALIBRATION: u64 = 13;
     /// The seeded site's geometry (`site.layout = "seeded"`).
     pub const SITE: u64 = 14;
+    /// The crew's survey error (`crate::survey`).
+    pub const SURVEY: u64 = 15;
 }
 
 #[cfg(test)]

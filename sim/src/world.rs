@@ -141,6 +141,18 @@ pub struct SimWorld {
     outbox: Vec<DriverOutput>,
 }
 
+/// The bay of a configuration: its scene and layout (`site.layout`, the seed).
+///
+/// # Errors
+/// Scene errors.
+pub fn site(config: &SimConfig) -> Result<(Scene, SubstationLayout), SimError> {
+    let params = match config.site_layout {
+        crate::config::SiteLayout::Fixed => SubstationParams::default(),
+        crate::config::SiteLayout::Seeded => SubstationParams::seeded(config.seed),
+    };
+    Ok(SubstationBuilder::new(config.seed).params(params).build()?)
+}
+
 impl SimWorld {
     /// Builds the world of a configuration ([`SimConfig::from_params`]).
     ///
@@ -148,11 +160,7 @@ impl SimWorld {
     /// Scene, camera or scenario errors.
     pub fn new(scenario: &SimConfig) -> Result<Self, SimError> {
         let seed = scenario.seed;
-        let params = match scenario.site_layout {
-            crate::config::SiteLayout::Fixed => SubstationParams::default(),
-            crate::config::SiteLayout::Seeded => SubstationParams::seeded(seed),
-        };
-        let (scene, layout) = SubstationBuilder::new(seed).params(params).build()?;
+        let (scene, layout) = site(scenario)?;
         let model = RobotModel::nominal();
         let r = &scenario.robot;
         let true_dh = perturbed_dh(&model.dh, seed, r.perturbation);

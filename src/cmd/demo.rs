@@ -27,7 +27,7 @@ pub struct DemoArgs {
     #[arg(long = "set", value_name = "K=V")]
     pub set: Vec<String>,
     /// The crew's survey of the bay, a site file (`config/sites/*.toml`, ARCHITECTURE.md
-    /// section 6): what the robot plans with instead of the built-in fixed bay.
+    /// section 5): what the robot plans with instead of the built-in fixed bay.
     #[arg(long, value_name = "FILE")]
     pub site: Option<PathBuf>,
     /// Skip the Rerun recording (faster).

@@ -13,6 +13,7 @@ pub mod record_ros2;
 pub mod recording_views;
 pub mod replay;
 pub mod sim;
+pub mod survey;
 pub mod view;
 
 /// Prints `text` and a newline on stdout; a closed pipe (`rodlog ... | head`) is not an

@@ -14,7 +14,7 @@ pub struct ParamsArgs {
     #[arg(long = "set", value_name = "K=V")]
     pub set: Vec<String>,
     /// The crew's survey of the bay, a site file (`config/sites/*.toml`, ARCHITECTURE.md
-    /// section 6): what the robot plans with instead of the built-in fixed bay.
+    /// section 5): what the robot plans with instead of the built-in fixed bay.
     #[arg(long, value_name = "FILE")]
     pub site: Option<std::path::PathBuf>,
     /// Also list the keys of parts this scenario does not build.
