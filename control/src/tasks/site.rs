@@ -120,30 +120,13 @@ impl SiteMap {
                 [0.16, 1.05, 0.9],
             ),
         ];
-        let rack = |name: &str, c: [f64; 3], h: [f64; 3]| {
-            obox(
+        for (name, c, h) in super::survey::RACK_PARTS {
+            obstacles.push(obox(
                 name,
                 map_from_rack * Isometry3::translation(c[0], c[1], c[2]),
                 h,
-            )
-        };
-        obstacles.push(rack("rack_plate", [0.0, 0.05, 0.01], [0.2, 0.2, 0.01]));
-        obstacles.push(rack(
-            "rack_pedestal",
-            [0.0, 0.05, -0.5 * RACK_PEDESTAL_M],
-            [0.22, 0.22, 0.5 * RACK_PEDESTAL_M],
-        ));
-        obstacles.push(rack("rack_post", [0.0, 0.13, 0.6], [0.025, 0.025, 0.6]));
-        obstacles.push(rack(
-            RACK_HOLDERS[0],
-            [0.0, 0.05, 0.75],
-            [0.04, 0.085, 0.015],
-        ));
-        obstacles.push(rack(
-            RACK_HOLDERS[1],
-            [0.0, 0.05, 1.45],
-            [0.04, 0.085, 0.015],
-        ));
+            ));
+        }
         Self {
             wire: WirePrior {
                 point: Point3::new(12.0, 0.0, 3.7),

@@ -39,7 +39,7 @@ const CABINET_BODIES: [(&str, [f64; 3], [f64; 3]); 3] = [
 ];
 
 /// The rack's parts in the rack frame: name, centre, half extents (m).
-const RACK_PARTS: [(&str, [f64; 3], [f64; 3]); 5] = [
+pub(crate) const RACK_PARTS: [(&str, [f64; 3], [f64; 3]); 5] = [
     ("rack_plate", [0.0, 0.05, 0.01], [0.2, 0.2, 0.01]),
     (
         "rack_pedestal",
