@@ -185,3 +185,61 @@ fn wind_speeds_and_light_hours_choose_the_conditions() {
         );
     }
 }
+
+/// `--sites seeded`: each trial's bay is drawn from its seed and the robot gets the
+/// simulated crew's survey; the results say so, the hangs succeed with no unsafe command,
+/// and the calibration experiments refuse the option.
+#[test]
+fn task_experiments_run_on_seeded_sites_with_a_survey() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let out = tmp.path().join("tasks");
+    let out_s = out.display().to_string();
+    let run = Command::new(env!("CARGO_BIN_EXE_rodlog"))
+        .args([
+            "experiment",
+            "tasks",
+            "--trials",
+            "1",
+            "--sites",
+            "seeded",
+            "--out",
+            &out_s,
+        ])
+        .output()
+        .expect("run rodlog");
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let results: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).expect("json"))
+            .expect("results.json parses");
+    assert_eq!(
+        results["parameters"]["sites"], "seeded, with a survey",
+        "{results}"
+    );
+    let runs = results["sections"]["runs"].as_array().expect("runs");
+    assert_eq!(runs.len(), 4, "{results}");
+    // The hangs (the rack is measured before the rod is taken) send no unsafe command; the
+    // remove racks the rod at the survey's rack pose, unmeasured, which a seeded bay's survey
+    // error can make miss (the experiment counts it).
+    for run in runs.iter().filter(|r| r["task"] == "hang") {
+        assert_eq!(run["unsafe_commands"], 0, "{run}");
+    }
+    // A hang on a seeded bay with the self-maintenance on succeeds.
+    assert!(
+        runs.iter()
+            .any(|r| r["task"] == "hang" && r["self_calibration"] == true && r["success"] == true),
+        "{results}"
+    );
+    let bad = Command::new(env!("CARGO_BIN_EXE_rodlog"))
+        .args(["experiment", "noise", "--sites", "seeded", "--out", &out_s])
+        .output()
+        .expect("run rodlog");
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(
+        !bad.status.success() && err.contains("--sites is an option of the task experiments"),
+        "{err}"
+    );
+}

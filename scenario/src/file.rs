@@ -211,12 +211,20 @@ impl Scenario {
     /// [`ScenarioError::Read`], [`ScenarioError::Toml`], and [`ScenarioError::Field`] for a
     /// file with anything but `[survey]` tables.
     pub fn apply_site_file(&mut self, path: &Path) -> Result<(), ScenarioError> {
-        let origin = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Read {
             path: path.to_path_buf(),
             source,
         })?;
-        let table = toml_table(&text, &origin)?;
+        self.apply_site_text(&text, &path.display().to_string())
+    }
+
+    /// [`Scenario::apply_site_file`] of a site file's text (`origin` names it in errors).
+    ///
+    /// # Errors
+    /// As [`Scenario::apply_site_file`], but for reading.
+    pub fn apply_site_text(&mut self, text: &str, origin: &str) -> Result<(), ScenarioError> {
+        let origin = origin.to_owned();
+        let table = toml_table(text, &origin)?;
         match (
             table.get(SURVEY_KEY),
             table.keys().find(|k| *k != SURVEY_KEY),

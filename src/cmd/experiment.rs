@@ -88,6 +88,22 @@ pub struct ExperimentOptions {
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
     #[serde(default)]
     pub hours: Option<Vec<f64>>,
+    /// The task experiments (tasks, light, wind, maintenance): `fixed`, the fixed bay whose
+    /// map the robot has built in, or `seeded`, a bay drawn from each trial's seed with the
+    /// simulated crew's survey given to the robot (`rodlog survey`).
+    #[arg(long, value_enum, default_value_t = Sites::Fixed)]
+    #[serde(default)]
+    pub sites: Sites,
+}
+
+/// `--sites` of the task experiments.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, Serialize, Deserialize)]
+pub enum Sites {
+    /// The fixed bay (the robot's built-in map).
+    #[default]
+    Fixed,
+    /// A seeded bay per trial, with a survey.
+    Seeded,
 }
 
 /// A `--speeds` / `--hours` list: non-empty, every value finite within `range`, no value
@@ -200,6 +216,17 @@ fn run_named(
         (_, Some(hours)) => check_list("--hours", hours, 0.0..=24.0)?,
         (None, None) => {}
     }
+    if options.sites == Sites::Seeded
+        && !matches!(
+            name,
+            ExperimentName::Tasks
+                | ExperimentName::Light
+                | ExperimentName::Wind
+                | ExperimentName::Maintenance
+        )
+    {
+        bail!("--sites is an option of the task experiments (tasks, light, wind, maintenance)");
+    }
     let settings = || -> Result<Settings> {
         Ok(Settings {
             name: name.name(),
@@ -210,6 +237,7 @@ fn run_named(
             orb_distribution: options.orb_distribution.into(),
             speeds_mps: options.speeds.clone(),
             hours: options.hours.clone(),
+            seeded_sites: options.sites == Sites::Seeded,
             out: OutputDir::create(out)?,
             mode: mode.clone(),
             arguments: serde_json::to_string(options)?,

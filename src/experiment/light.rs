@@ -48,6 +48,7 @@ pub fn run(settings: &Settings) -> Result<()> {
                 self_maintenance: true,
                 camera_scale,
                 duration_s: 320.0,
+                seeded_site: settings.seeded_sites,
             });
         }
     }
@@ -55,6 +56,7 @@ pub fn run(settings: &Settings) -> Result<()> {
         return Ok(());
     };
     let mut report = Report::new("Light: hang success and time by hour of day");
+    report.paragraph(settings.sites_sentence());
     report.paragraph(&format!(
         "{trials} seeded hangs per hour, self-maintenance on, no bump, mean wind 0-1.5 m/s, wrist \
          camera {}x{}. Judged with the simulator's truth.",
@@ -115,6 +117,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     json.parameter("trials", trials)?;
     json.parameter("hours", hours.iter().map(|(h, _)| *h).collect::<Vec<f64>>())?;
     json.parameter("camera_scale", camera_scale)?;
+    json.parameter("sites", settings.sites_label())?;
     json.section("groups", &groups)?;
     settings.write_results(&json)?;
     let path = report.write(settings.out.root())?;

@@ -84,6 +84,7 @@ pub fn run(settings: &Settings) -> Result<()> {
                 self_maintenance: true,
                 camera_scale,
                 duration_s: 60.0,
+                seeded_site: settings.seeded_sites,
             });
         }
     }
@@ -125,6 +126,7 @@ pub fn run(settings: &Settings) -> Result<()> {
         })
         .collect();
     let mut report = Report::new("Maintenance: drift detection per bump size");
+    report.paragraph(settings.sites_sentence());
     report.paragraph(&format!(
         "{trials} runs per bin of the `check` task (4 drift check views of the calibration \
          cabinet, wrist camera {}x{}, 9:00-15:00, mean wind 0-1 m/s); bump at 0.5 s in a \
@@ -187,6 +189,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     json.seeds = seeds;
     json.parameter("trials", trials)?;
     json.parameter("camera_scale", camera_scale)?;
+    json.parameter("sites", settings.sites_label())?;
     json.section("bins", &bins)?;
     let answers: Vec<_> = results
         .iter()

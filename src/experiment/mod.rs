@@ -73,6 +73,8 @@ pub struct Settings {
     pub speeds_mps: Option<Vec<f64>>,
     /// `--hours`: the light experiment's hours, `None` for its own list.
     pub hours: Option<Vec<f64>>,
+    /// `--sites seeded`: the task experiments run on seeded bays with a survey each.
+    pub seeded_sites: bool,
     /// The output folder (created).
     pub out: OutputDir,
     /// All items, one shard of them, or the records of merged shards ([`shard`]).
@@ -82,6 +84,24 @@ pub struct Settings {
 }
 
 impl Settings {
+    /// The `sites` parameter of the task experiments' results.
+    pub fn sites_label(&self) -> &'static str {
+        if self.seeded_sites {
+            "seeded, with a survey"
+        } else {
+            "fixed"
+        }
+    }
+
+    /// The task experiments' reports say on which bays they ran.
+    pub fn sites_sentence(&self) -> &'static str {
+        if self.seeded_sites {
+            "Sites: a bay drawn from each trial's seed, the robot given the simulated crew's survey of it (`rodlog survey`)."
+        } else {
+            "Sites: the fixed bay, whose map the robot has built in."
+        }
+    }
+
     /// `--trials` or the experiment's `default`, at least 1.
     pub fn trials_or(&self, default: usize) -> usize {
         self.trials.unwrap_or(default).max(1)

@@ -34,6 +34,11 @@ pub struct RunSpec {
     pub camera_scale: f64,
     /// Robot time to simulate (s).
     pub duration_s: f64,
+    /// The bay is drawn from the seed (`site.layout = "seeded"`) and the robot gets the
+    /// simulated crew's survey of it (`sim::survey`); false: the fixed bay, whose map the
+    /// robot has built in.
+    #[serde(default)]
+    pub seeded_site: bool,
 }
 
 impl RunSpec {
@@ -59,6 +64,9 @@ impl RunSpec {
         }
         if self.task == "remove" {
             t.push_str("\n[robot]\nrod = \"hung\"\n");
+        }
+        if self.seeded_site {
+            t.push_str("\n[site]\nlayout = \"seeded\"\n");
         }
         t.push_str(&format!(
             "\n[camera]\nscale = {:?}\n\n[panoramic]\nperiod_s = 1.0\n\n[parameters]\ntask.self_maintenance = {}\n",
@@ -89,8 +97,17 @@ pub struct RunResult {
 pub fn run(spec: &RunSpec, dir: &Path, keep: bool) -> Result<RunResult> {
     let text = spec.scenario_toml();
     let origin = format!("{}-{}", spec.task, spec.seed);
-    let scenario = scenario::Scenario::parse(&text, &origin)
+    let mut scenario = scenario::Scenario::parse(&text, &origin)
         .with_context(|| format!("scenario of run {origin}"))?;
+    if spec.seeded_site {
+        // The crew's survey of the seeded bay, given to the robot as a site file would be.
+        let config = sim::SimConfig::of_scenario(&scenario)?;
+        let (_, layout) = sim::world::site(&config)?;
+        let survey = sim::survey::survey(&layout, config.seed).map_err(anyhow::Error::msg)?;
+        scenario
+            .apply_site_text(&survey.to_site_file(), &format!("survey of run {origin}"))
+            .with_context(|| format!("survey of run {origin}"))?;
+    }
     let plan =
         compose::Plan::new(&scenario).with_context(|| format!("scenario of run {origin}"))?;
     let out = dir.join(format!(

@@ -46,7 +46,7 @@ struct RunLine {
 
 /// The specs of one trial (hang and remove, with and without self-calibration).
 #[must_use]
-pub fn trial_specs(seed: u64, camera_scale: f64) -> Vec<RunSpec> {
+pub fn trial_specs(seed: u64, camera_scale: f64, seeded_site: bool) -> Vec<RunSpec> {
     let u = |k: u64| sim::rng::uniform(seed, 0x7A5C, k);
     let hour = 8.0 + 8.0 * u(0);
     let wind = 1.5 * u(1);
@@ -70,6 +70,7 @@ pub fn trial_specs(seed: u64, camera_scale: f64) -> Vec<RunSpec> {
                 self_maintenance: with,
                 camera_scale,
                 duration_s: 320.0,
+                seeded_site,
             });
         }
     }
@@ -88,7 +89,7 @@ pub fn run(settings: &Settings) -> Result<()> {
         .collect();
     let specs: Vec<RunSpec> = seeds
         .iter()
-        .flat_map(|&s| trial_specs(s, camera_scale))
+        .flat_map(|&s| trial_specs(s, camera_scale, settings.seeded_sites))
         .collect();
     let Some(results) = run_selected(settings, "tasks", &specs)? else {
         return Ok(());
@@ -110,10 +111,11 @@ pub fn run(settings: &Settings) -> Result<()> {
         "{trials} seeded trials, each a hang and a remove with and without self-calibration \
          ({} runs). Bump at 0.5 s, 1-3 deg / 3-10 mm from the seed; 8:00-16:00; mean wind \
          0-1.5 m/s; wrist camera {}x{}. Success is judged with the simulator's truth \
-         (`rodlog check task`).",
+         (`rodlog check task`). {}",
         specs.len(),
         (1280.0 * camera_scale).round(),
-        (1024.0 * camera_scale).round()
+        (1024.0 * camera_scale).round(),
+        settings.sites_sentence()
     ));
     report.table(&outcome_table("condition", &groups));
     report.paragraph(&format!(
@@ -167,6 +169,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     json.seeds.clone_from(&seeds);
     json.parameter("trials", trials)?;
     json.parameter("camera_scale", camera_scale)?;
+    json.parameter("sites", settings.sites_label())?;
     json.section("groups", &groups)?;
     json.section("gain_points", gains)?;
     json.section("unsafe_commands", unsafe_total)?;

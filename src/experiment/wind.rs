@@ -42,6 +42,7 @@ pub fn run(settings: &Settings) -> Result<()> {
                 self_maintenance: true,
                 camera_scale,
                 duration_s: 320.0,
+                seeded_site: settings.seeded_sites,
             });
         }
     }
@@ -61,6 +62,7 @@ pub fn run(settings: &Settings) -> Result<()> {
         .collect();
     let unsafe_total: usize = groups.iter().map(|g| g.unsafe_commands).sum();
     let mut report = Report::new("Wind: hang success vs mean wind speed");
+    report.paragraph(settings.sites_sentence());
     report.paragraph(&format!(
         "{trials} seeded hangs per mean speed, 11:00-13:00, self-maintenance on, no bump, wrist \
          camera {}x{}. Unsafe = a command issued while the true 3-s mean wind exceeded 2 m/s \
@@ -111,6 +113,7 @@ pub fn run(settings: &Settings) -> Result<()> {
         speeds.iter().map(|(s, _)| *s).collect::<Vec<f64>>(),
     )?;
     json.parameter("camera_scale", camera_scale)?;
+    json.parameter("sites", settings.sites_label())?;
     json.section("groups", &groups)?;
     json.section("max_true_wind_at_command_mps", &max_wind)?;
     json.section("unsafe_commands", unsafe_total)?;
