@@ -124,3 +124,69 @@ fn a_hang_on_a_seeded_site_with_a_survey_succeeds_safely() {
         "{recorded} vs {point:?}"
     );
 }
+
+/// `calib-site` at a seeded bay: the task plans the 18 recalibration views from the survey's
+/// cabinet (not calib-18's fixed joint list, which was made for the fixed bay), the camera
+/// was knocked at 0.5 s (by 1-3 deg, more than the tolerance), and the recalibration lands within the judge's tolerance of the
+/// true mount, with no unsafe command.
+#[test]
+fn self_calibration_at_a_seeded_site_plans_its_views_from_the_survey() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let site = dir.path().join("site.toml");
+    let site_s = site.display().to_string();
+    let seeded = ["--seed", "3", "--set", "site.layout=seeded"];
+    let mut args = vec!["survey", "calib-site"];
+    args.extend(seeded);
+    args.extend(["--out", &site_s]);
+    let out = rodlog(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rec = dir.path().join("calib.mcap");
+    let rec_s = rec.display().to_string();
+    let mut args = vec!["record", "--scenario", "calib-site", "--until-done"];
+    args.extend(seeded);
+    args.extend([
+        "--site",
+        &site_s,
+        "--set",
+        "camera.scale=0.2",
+        "--set",
+        "camera.depth_encoding=16UC1",
+        "--out",
+        &rec_s,
+    ]);
+    let out = rodlog(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let judged = rodlog(&["check", "task", &rec_s, "--json"]);
+    assert!(
+        judged.status.success(),
+        "{}",
+        String::from_utf8_lossy(&judged.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&judged.stdout).expect("JSON");
+    eprintln!("{v}");
+    assert_eq!(v["task"], "self-calibrate", "{v}");
+    assert_eq!(v["outcome"], "done", "{v}");
+    assert_eq!(v["reason_code"], "accepted", "{v}");
+    assert_eq!(
+        v["unsafe_commands"].as_array().map(Vec::len),
+        Some(0),
+        "{v}"
+    );
+    assert_eq!(v["success"], true, "{v}");
+    let hand_eye = v["hand_eye"].as_array().expect("hand_eye");
+    let last = hand_eye.last().expect("a recalibrated mount published");
+    let (deg, mm) = compose::judge::SELF_CALIBRATION_TOLERANCE;
+    assert!(
+        last["rot_error_deg"].as_f64().expect("deg") <= deg,
+        "{last}"
+    );
+    assert!(last["trans_error_mm"].as_f64().expect("mm") <= mm, "{last}");
+}

@@ -18,7 +18,8 @@
 //!   [`SAMPLE_RAD`]) would bring the true arm, or the rod it holds, into contact with the
 //!   scene (any primitive, the ground), the robot's own body, the conductors or itself;
 //! * a lift move would do the same at any height on its way;
-//! * a base goal's straight drive would bring the chassis into contact with the scene.
+//! * a base goal's motion (`sim::base::motion_path`: turn in place, straight drive, turn)
+//!   would bring the chassis into contact with the scene.
 //!
 //! Contacts that are the point of the task are not collisions: the gripper (tool and wrist 3)
 //! with the rod's handle, the rod with its rack (primitives within [`RACK_CONTACT_M`] of the
@@ -83,6 +84,11 @@ pub struct HookError {
     pub window_fraction: f64,
 }
 
+/// How far from the true mount the last published hand-eye of a `self-calibrate` task may be
+/// for the run to succeed (deg, mm): a rotation error of 0.5 deg moves the wire's hook point
+/// seen from 0.5 m by 4.4 mm, well inside the hook's capture window.
+pub const SELF_CALIBRATION_TOLERANCE: (f64, f64) = (0.5, 5.0);
+
 /// The judge's verdict on one recording.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Verdict {
@@ -100,7 +106,7 @@ pub struct Verdict {
     pub rod_state: String,
     /// Whether the task succeeded: it ended done, no command was unsafe, and the rod ended
     /// where the task wanted it (hang: clamped on the wire inside the window; remove: on the
-    /// rack).
+    /// rack; self-calibrate: the last hand-eye within [`SELF_CALIBRATION_TOLERANCE`]).
     pub success: bool,
     /// Final hook offset (when the rod is on the wire).
     pub hook: Option<HookError>,
@@ -588,7 +594,10 @@ pub fn judge(path: &std::path::Path) -> Result<Verdict, ComposeError> {
                 });
             }
             (topics::TASK_EVENT, Msg::TaskEvent(e))
-                if matches!(e.task.as_str(), "hang" | "remove" | "check") =>
+                if matches!(
+                    e.task.as_str(),
+                    "hang" | "remove" | "check" | "self-calibrate"
+                ) =>
             {
                 verdict.task = Some(e.task.clone());
                 if e.state == "started" {
@@ -678,20 +687,21 @@ pub fn judge(path: &std::path::Path) -> Result<Verdict, ComposeError> {
                         }
                     }
                     Msg::PoseStamped(goal) => {
+                        // The sim base's own motion to the goal, turns included.
                         let g = robot::conversions::isometry_from_pose(&goal.pose);
-                        let from = state.map_from_base.translation.vector;
-                        let to = g.translation.vector;
-                        let n = ((to - from).norm() / 0.05).ceil().max(1.0) as usize;
-                        let heading = (to - from).y.atan2((to - from).x);
-                        for k in 0..=n {
-                            let p = from + (to - from) * (k as f64 / n as f64);
-                            let yaw = if k == n {
-                                g.rotation.euler_angles().2
-                            } else {
-                                heading
-                            };
-                            let pose = robot::se3::planar_pose(p.x, p.y, yaw);
-                            let (c, what) = chassis_clearance(&truth, &pose);
+                        let planar = |m: &Isometry3<f64>| sim::base::Planar {
+                            x_m: m.translation.x,
+                            y_m: m.translation.y,
+                            yaw_rad: m.rotation.euler_angles().2,
+                        };
+                        let path = sim::base::motion_path(
+                            planar(&state.map_from_base),
+                            planar(&g),
+                            0.05,
+                            0.02,
+                        );
+                        for pose in path {
+                            let (c, what) = chassis_clearance(&truth, &pose.isometry());
                             if c < 0.0 {
                                 reasons.push(format!("drive: {what} ({:.1} mm)", c * 1e3));
                                 break;
@@ -739,6 +749,10 @@ pub fn judge(path: &std::path::Path) -> Result<Verdict, ComposeError> {
             Some("remove") => verdict.rod_state == "on_rack",
             // A check succeeds when it gives a verdict (what it says is the experiment's).
             Some("check") => true,
+            Some("self-calibrate") => verdict.hand_eye.last().is_some_and(|e| {
+                e.rot_error_deg <= SELF_CALIBRATION_TOLERANCE.0
+                    && e.trans_error_mm <= SELF_CALIBRATION_TOLERANCE.1
+            }),
             _ => false,
         };
     Ok(verdict)

@@ -120,7 +120,15 @@ pub struct Plan {
     remote: Vec<String>,
 }
 
-const TASKS: [&str; 6] = ["none", "calibrate", "hang", "remove", "check", "demo"];
+const TASKS: [&str; 7] = [
+    "none",
+    "calibrate",
+    "hang",
+    "remove",
+    "check",
+    "demo",
+    "self-calibrate",
+];
 
 impl Plan {
     /// Composes `scenario`, every key strictly checked.
@@ -166,7 +174,7 @@ impl Plan {
             TASK_KEY,
             "none",
             &TASKS,
-            "the task stage's job (none and calibrate run no task stage)",
+            "the task stage's job (none and calibrate run no task stage: calibrate follows the scenario's scripted views; self-calibrate plans its views from the site map)",
         )?;
         let perceive_enabled = r.section("perceive").bool(
             "enabled",

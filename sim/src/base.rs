@@ -55,6 +55,45 @@ impl Planar {
     }
 }
 
+/// Goals closer than this are reached by turning in place (m).
+pub const BASE_DRIVE_MIN_M: f64 = 0.005;
+
+/// The true poses of the base's motion from `from` to a goal `to` (module docs: turn in place
+/// towards the goal, drive straight, turn to the goal's yaw; only the turn for a goal closer
+/// than [`BASE_DRIVE_MIN_M`]), sampled every `step_m` along the drive and `step_rad` of a
+/// turn, both ends included. For judging a goal against the true scene.
+#[must_use]
+pub fn motion_path(from: Planar, to: Planar, step_m: f64, step_rad: f64) -> Vec<Planar> {
+    let turn = |path: &mut Vec<Planar>, at: Planar, yaw_rad: f64| {
+        let delta = wrap_to_pi(yaw_rad - at.yaw_rad);
+        let n = (delta.abs() / step_rad).ceil().max(1.0) as usize;
+        path.extend((1..=n).map(|k| Planar {
+            yaw_rad: at.yaw_rad + delta * k as f64 / n as f64,
+            ..at
+        }));
+    };
+    let (dx, dy) = (to.x_m - from.x_m, to.y_m - from.y_m);
+    let distance = dx.hypot(dy);
+    let mut path = vec![from];
+    let mut at = from;
+    if distance > BASE_DRIVE_MIN_M {
+        let heading = dy.atan2(dx);
+        turn(&mut path, at, heading);
+        let n = (distance / step_m).ceil().max(1.0) as usize;
+        path.extend((1..=n).map(|k| Planar {
+            x_m: from.x_m + dx * k as f64 / n as f64,
+            y_m: from.y_m + dy * k as f64 / n as f64,
+            yaw_rad: heading,
+        }));
+        at = Planar {
+            yaw_rad: heading,
+            ..to
+        };
+    }
+    turn(&mut path, at, to.yaw_rad);
+    path
+}
+
 /// The simulated base.
 #[derive(Debug, Clone)]
 pub struct BaseSim {
@@ -127,7 +166,7 @@ impl BaseSim {
         let (dx, dy) = (goal.x_m - self.truth.x_m, goal.y_m - self.truth.y_m);
         let dist = dx.hypot(dy);
         let max_turn = BASE_TURN_RAD_S * TICK_S;
-        let (ds, dyaw) = if dist > 0.005 {
+        let (ds, dyaw) = if dist > BASE_DRIVE_MIN_M {
             let heading_err = wrap_to_pi(dy.atan2(dx) - self.truth.yaw_rad);
             if heading_err.abs() > 1e-3 {
                 (0.0, heading_err.clamp(-max_turn, max_turn))
@@ -230,6 +269,27 @@ impl BaseDriver for BaseSim {
 mod tests {
     use super::*;
     use msgs::geometry_msgs::{Point, Pose};
+
+    /// A goal beside the base turns it a quarter turn, drives, turns back; a goal where it
+    /// stands only turns.
+    #[test]
+    fn the_motion_path_turns_drives_and_turns() {
+        let at = Planar {
+            x_m: 1.0,
+            y_m: 2.0,
+            yaw_rad: 0.0,
+        };
+        let beside = Planar { y_m: 2.02, ..at };
+        let path = motion_path(at, beside, 0.05, 0.02);
+        let max_yaw = path.iter().map(|p| p.yaw_rad).fold(0.0, f64::max);
+        assert!((max_yaw - std::f64::consts::FRAC_PI_2).abs() < 1e-9);
+        assert_eq!(path.last().copied(), Some(beside));
+        let turned = Planar { yaw_rad: 0.1, ..at };
+        let path = motion_path(at, turned, 0.05, 0.02);
+        assert!(path.iter().all(|p| p.x_m == at.x_m && p.y_m == at.y_m));
+        assert!(path.iter().all(|p| (0.0..=0.1).contains(&p.yaw_rad)));
+        assert_eq!(path.len(), 6);
+    }
 
     #[test]
     fn drives_to_the_goal_and_odometry_drifts_a_little() -> Result<(), DriverError> {

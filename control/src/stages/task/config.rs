@@ -29,10 +29,15 @@ pub enum TaskKind {
     /// check's verdict ends the task (`reason_code` = `consistent`, `drifted` or
     /// `cannot_tell`). For the maintenance experiment and for a check on demand.
     Check,
+    /// Calibrate the hand-eye at the site on demand (no check first, no operation): drive to
+    /// the working spot, visit the recalibration's views planned from the site map's
+    /// calibration target, and end `done` (`reason_code` `accepted`) when the calibration
+    /// stage accepts the new mount, refused otherwise. A new site or a new camera mount.
+    SelfCalibrate,
 }
 
 impl TaskKind {
-    /// `hang` or `remove`.
+    /// The task's name (`task = ...` in a scenario, and `/task/event`'s task).
     #[must_use]
     pub fn name(self) -> &'static str {
         match self {
@@ -40,10 +45,11 @@ impl TaskKind {
             Self::Remove => "remove",
             Self::Demo => "demo",
             Self::Check => "check",
+            Self::SelfCalibrate => "self-calibrate",
         }
     }
 
-    /// Parses `hang` / `remove`.
+    /// Parses a [`TaskKind::name`].
     #[must_use]
     pub fn parse(s: &str) -> Option<Self> {
         match s {
@@ -51,6 +57,7 @@ impl TaskKind {
             "remove" => Some(Self::Remove),
             "check" => Some(Self::Check),
             "demo" => Some(Self::Demo),
+            "self-calibrate" => Some(Self::SelfCalibrate),
             _ => None,
         }
     }

@@ -165,6 +165,16 @@ const CHECK: [&StepDef; 5] = [
     &retreat::STEP,
 ];
 
+/// The calibration on demand: the recalibration's views without a check first; the
+/// stage's acceptance goes on to the retreat, anything else refuses.
+const SELF_CALIBRATE: [&StepDef; 5] = [
+    &begin::STEP,
+    &drive::STEP,
+    &stow::STEP,
+    &recalibrate::STEP,
+    &retreat::STEP,
+];
+
 /// The steps of a task, in order.
 #[derive(Debug, Clone)]
 pub(crate) struct Flow {
@@ -174,7 +184,7 @@ pub(crate) struct Flow {
 impl Flow {
     /// The flow of a task of `kind`: hang and remove are [`PREPARE`] then their operation
     /// ([`HANG`], [`REMOVE`]); the demo is [`PREPARE`], [`HANG`], [`REMOVE`]; the check
-    /// is [`CHECK`].
+    /// is [`CHECK`], the calibration on demand [`SELF_CALIBRATE`].
     pub fn of(kind: TaskKind) -> Self {
         let prepare = |phase| {
             PREPARE
@@ -200,6 +210,9 @@ impl Flow {
                 .chain(operation(TaskKind::Remove, &REMOVE))
                 .collect(),
             TaskKind::Check => operation(TaskKind::Check, &CHECK).collect(),
+            TaskKind::SelfCalibrate => {
+                operation(TaskKind::SelfCalibrate, &SELF_CALIBRATE).collect()
+            }
         };
         Self { entries }
     }

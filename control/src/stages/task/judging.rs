@@ -97,8 +97,19 @@ impl Task {
             }
             (_, "accepted") => {
                 self.memory.unverified_check = None;
+                if self.config.kind == TaskKind::SelfCalibrate {
+                    self.memory.done_reason = "accepted";
+                    self.memory.done_text = answer.text;
+                }
                 Ok(Next::After(recalibrate::NAME))
             }
+            (_, code) if self.config.kind == TaskKind::SelfCalibrate => Err(Stop::refused(
+                "calibration_failed",
+                format!(
+                    "the self-calibration was not accepted ({code}: {}); check that the site file's calibration target is right and the target lit, or calibrate with a board",
+                    answer.text
+                ),
+            )),
             (_, code) if self.memory.unverified_check.is_some() => Err(Stop::refused(
                 "calibration_unverifiable",
                 format!(

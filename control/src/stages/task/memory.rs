@@ -73,7 +73,7 @@ impl Memory {
         Self {
             rod: match kind {
                 TaskKind::Hang | TaskKind::Demo => Rod::OnRack,
-                TaskKind::Remove | TaskKind::Check => Rod::Unknown,
+                TaskKind::Remove | TaskKind::Check | TaskKind::SelfCalibrate => Rod::Unknown,
             },
             attempts: 0,
             sway_holds: 0,

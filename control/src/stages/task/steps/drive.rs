@@ -1,16 +1,28 @@
 //! `drive`: the base to the site's working spot (`/base/goal` in `map`), unless it is there
 //! already; done when the odometry is at the spot and still.
+//!
+//! The spot is a survey's, known to a few cm: a correction shorter than
+//! [`SPOT_TOLERANCE_M`] is not driven (the base only turns to the spot's heading), since a
+//! differential base turns in place to drive even 2 cm sideways and would sweep its corners
+//! through the rack beside it. Every drive is checked before it is sent: the chassis along
+//! the base's turn-drive-turn path against the site map's obstacles, which refuses a path
+//! that comes closer than [`DRIVE_CLEARANCE_M`].
 
 use msgs::RobotDuration;
 use msgs::frames::MAP;
 use msgs::geometry_msgs::PoseStamped;
 use msgs::topics::BASE_GOAL;
+use nalgebra::{Isometry3, Point3};
 
+use crate::motion::collision::{
+    CHASSIS_CENTRE_Z_M, CHASSIS_HALF_EXTENTS_M, Capsule, capsule_box, capsule_capsule,
+};
 use crate::stages::task::Task;
 use crate::stages::task::action::{Action, BASE_ARRIVED_M, BASE_ARRIVED_RAD, Until};
 use crate::stages::task::flow::{StepDef, Stop, next_in_flow};
 use crate::stages::task::inputs::base_pose_of;
 use crate::stages::task::outputs::pose_msg;
+use crate::tasks::site::{BasePose, SiteMap};
 
 /// The step's event name.
 pub(crate) const NAME: &str = "drive";
@@ -26,15 +38,40 @@ const DRIVE_SPEED_M_S: f64 = 0.5;
 /// ... and turn rate (rad/s, a full turn is allowed for).
 const TURN_RATE_RAD_S: f64 = 0.6;
 
+/// A drive to the spot shorter than this is not made (m): three times a survey's 2 cm.
+pub const SPOT_TOLERANCE_M: f64 = 0.06;
+/// The least clearance of the chassis to the site map's obstacles along a drive (m): the
+/// survey's error on the obstacles' positions.
+pub const DRIVE_CLEARANCE_M: f64 = 0.03;
+/// Path sampling of the drive check (m along the drive, rad of a turn).
+const DRIVE_CHECK_STEP: (f64, f64) = (0.05, 0.02);
+
 fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
-    let spot = task.config.site.work_spot;
+    let site = &task.config.site;
     let map_from_base = task.robot.base_from_map()?.inverse();
     let here = base_pose_of(&map_from_base);
-    let distance = (spot.x_m - here.x_m).hypot(spot.y_m - here.y_m);
+    let mut spot = site.work_spot;
+    let mut distance = (spot.x_m - here.x_m).hypot(spot.y_m - here.y_m);
+    if distance < SPOT_TOLERANCE_M {
+        (spot.x_m, spot.y_m, distance) = (here.x_m, here.y_m, 0.0);
+    }
     if distance < BASE_ARRIVED_M
         && robot::se3::wrap_to_pi(spot.yaw_rad - here.yaw_rad).abs() < BASE_ARRIVED_RAD
     {
         return Ok(Vec::new());
+    }
+    let (clearance_m, obstacle, at) = drive_clearance(site, &here, &spot);
+    if clearance_m < DRIVE_CLEARANCE_M {
+        return Err(Stop::refused(
+            "drive_blocked",
+            format!(
+                "the drive to the working spot would bring the chassis within {:.0} mm of {obstacle} at ({:.2}, {:.2}) m (at least {:.0} mm needed): park the robot nearer the spot, or check the site file's spot and obstacles",
+                clearance_m * 1e3,
+                at.x_m,
+                at.y_m,
+                DRIVE_CLEARANCE_M * 1e3
+            ),
+        ));
     }
     let goal = PoseStamped {
         header: task.out.header(task.robot.now, MAP),
@@ -49,4 +86,127 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
             .unwrap_or(RobotDuration::from_secs(120)),
         label: "base to the working spot",
     }])
+}
+
+/// The poses of the base's motion from `from` to `to` (`sim`'s base and a differential
+/// drive: turn in place towards the goal, drive straight, turn to the goal's heading),
+/// sampled every [`DRIVE_CHECK_STEP`].
+fn drive_path(from: &BasePose, to: &BasePose) -> Vec<BasePose> {
+    let (dx, dy) = (to.x_m - from.x_m, to.y_m - from.y_m);
+    let distance = dx.hypot(dy);
+    let mut path = vec![*from];
+    let turn = |path: &mut Vec<BasePose>, at: BasePose, to_yaw: f64| {
+        let delta = robot::se3::wrap_to_pi(to_yaw - at.yaw_rad);
+        let n = (delta.abs() / DRIVE_CHECK_STEP.1).ceil().max(1.0) as usize;
+        path.extend((1..=n).map(|k| BasePose {
+            yaw_rad: at.yaw_rad + delta * k as f64 / n as f64,
+            ..at
+        }));
+    };
+    let mut at = *from;
+    if distance > 0.005 {
+        let heading = dy.atan2(dx);
+        turn(&mut path, at, heading);
+        let n = (distance / DRIVE_CHECK_STEP.0).ceil().max(1.0) as usize;
+        path.extend((1..=n).map(|k| BasePose {
+            x_m: from.x_m + dx * k as f64 / n as f64,
+            y_m: from.y_m + dy * k as f64 / n as f64,
+            yaw_rad: heading,
+        }));
+        at = BasePose {
+            yaw_rad: heading,
+            ..*to
+        };
+    }
+    turn(&mut path, at, to.yaw_rad);
+    path
+}
+
+/// The least clearance of the chassis (spheres filling its box) to the site map's obstacles
+/// and stored rod along [`drive_path`], the obstacle's name and the base pose there.
+fn drive_clearance(site: &SiteMap, from: &BasePose, to: &BasePose) -> (f64, String, BasePose) {
+    let [hx, hy, r] = CHASSIS_HALF_EXTENTS_M;
+    let mut best = (f64::INFINITY, String::new(), *from);
+    let spheres: Vec<Point3<f64>> = {
+        let (nx, ny) = (
+            ((hx - r) / 0.1).ceil() as i32,
+            ((hy - r) / 0.1).ceil() as i32,
+        );
+        (-nx..=nx)
+            .flat_map(|i| {
+                (-ny..=ny).map(move |j| {
+                    Point3::new(
+                        (f64::from(i) * 0.1).clamp(-(hx - r), hx - r),
+                        (f64::from(j) * 0.1).clamp(-(hy - r), hy - r),
+                        CHASSIS_CENTRE_Z_M,
+                    )
+                })
+            })
+            .collect()
+    };
+    let rods = site.stored_rod_capsules();
+    for pose in drive_path(from, to) {
+        let map_from_base: Isometry3<f64> = pose.isometry();
+        let world = site.collision_world(&map_from_base.inverse(), None);
+        for p in &spheres {
+            let s = Capsule {
+                a: *p,
+                b: *p,
+                radius_m: r,
+            };
+            for (name, b) in world.boxes.iter().filter(|(n, _)| n != "ground") {
+                let c = capsule_box(&s, b);
+                if c < best.0 {
+                    best = (c, name.clone(), pose);
+                }
+            }
+            let base_from_map = map_from_base.inverse();
+            let rod = rods.iter().map(|(n, c)| {
+                (
+                    n,
+                    Capsule {
+                        a: base_from_map * c.a,
+                        b: base_from_map * c.b,
+                        radius_m: c.radius_m,
+                    },
+                )
+            });
+            for (name, c) in world.capsules.iter().map(|(n, c)| (n, *c)).chain(rod) {
+                let d = capsule_capsule(&s, &c);
+                if d < best.0 {
+                    best = (d, name.clone(), pose);
+                }
+            }
+        }
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The fixed bay: a 2 cm correction is not driven; a 1.5 m drive along the spot's own
+    /// heading is clear; a turn in place beside the rack, as a 2 cm sideways correction
+    /// would need, would hit it.
+    #[test]
+    fn drives_are_checked_against_the_site_and_small_corrections_are_not_driven() {
+        let site = SiteMap::default_bay();
+        let spot = site.work_spot;
+        let behind = BasePose {
+            y_m: spot.y_m - 1.5,
+            ..spot
+        };
+        let (clear_m, _, _) = drive_clearance(&site, &behind, &spot);
+        assert!(clear_m > DRIVE_CLEARANCE_M, "{clear_m}");
+        let sideways = BasePose {
+            x_m: spot.x_m + 0.02,
+            ..spot
+        };
+        let (clear_m, what, _) = drive_clearance(&site, &spot, &sideways);
+        assert!(clear_m < 0.0, "{clear_m} {what}");
+        assert!(what.contains("rack"), "{what}");
+        let path = drive_path(&spot, &sideways);
+        assert!(path.len() > 100, "two quarter turns sampled");
+    }
 }

@@ -450,6 +450,29 @@ fn the_check_task_ends_with_the_checks_verdict() {
 }
 
 #[test]
+fn self_calibrate_collects_without_a_check_and_ends_with_the_stages_answer() {
+    let mut rig = Rig::with(TaskKind::SelfCalibrate, |_, b| {
+        b.calibration = ["accepted"].into();
+    });
+    rig.run(LIMIT_S);
+    let last = assert_ended(&rig, TaskEvent::DONE, "accepted");
+    assert_eq!(last.task, "self-calibrate");
+    assert_eq!(
+        rig.steps(),
+        ["begin", "drive", "stow", "recalibrate", "retreat"]
+    );
+    for answer in ["rejected", "refused"] {
+        let mut rig = Rig::with(TaskKind::SelfCalibrate, |_, b| {
+            b.calibration = [answer].into();
+        });
+        rig.run(LIMIT_S);
+        let last = assert_ended(&rig, TaskEvent::REFUSED, "calibration_failed");
+        assert!(last.text.contains("self-calibration"), "{last:?}");
+        assert!(!last.text.contains("mount moved"), "{last:?}");
+    }
+}
+
+#[test]
 fn recover_backs_off_a_missed_hook_and_looks_again() {
     let mut rig = Rig::with(TaskKind::Hang, |c, b| {
         c.self_maintenance = false;
@@ -479,6 +502,7 @@ fn every_flow_names_each_step_once_per_phase_and_holds_the_steps_its_verdicts_ju
         TaskKind::Remove,
         TaskKind::Demo,
         TaskKind::Check,
+        TaskKind::SelfCalibrate,
     ] {
         let flow = Flow::of(kind);
         let entries = flow.entries();
@@ -502,6 +526,9 @@ fn every_flow_names_each_step_once_per_phase_and_holds_the_steps_its_verdicts_ju
             }
             TaskKind::Remove => assert!(has("recalibrate", kind) && has("look_handle", kind)),
             TaskKind::Check => assert!(!has("recalibrate", kind)),
+            TaskKind::SelfCalibrate => {
+                assert!(has("recalibrate", kind) && !has("check_calibration", kind));
+            }
         }
         if kind == TaskKind::Demo {
             assert!(has("look_handle", TaskKind::Remove));
