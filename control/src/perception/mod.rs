@@ -9,6 +9,7 @@
 //! | [`cylinder`] | RANSAC cylinder of known radius (2 points + normals) and LM refinement |
 //! | [`wire`] | hanging point on the axis, approach normal, capture fusion, `PoseStamped` |
 //! | [`handle`] | the rod handle (a bar of known radius and length): pose |
+//! | [`rack`] | the empty rack's pose from its post (a survey's few cm to a millimetre) |
 //! | [`panoramic`] | the panoramic wire-region finder: plane of the wire, corrected map prior, wrist look pose |
 //! | [`colour`] | colour confirmation of a depth fit: silhouette contrast in the registered colour image |
 //! | [`confidence`] | quality metrics -> score in [0, 1], refusal threshold |
@@ -29,6 +30,7 @@ pub mod cylinder;
 pub mod handle;
 pub mod panoramic;
 pub mod point_cloud;
+pub mod rack;
 pub mod roi;
 pub mod synthetic;
 pub mod wire;

@@ -51,6 +51,31 @@ pub(crate) const RACK_PARTS: [(&str, [f64; 3], [f64; 3]); 5] = [
     (RACK_HOLDERS[1], [0.0, 0.05, 1.45], [0.04, 0.085, 0.015]),
 ];
 
+/// The rack's post and base plate ([`RACK_PARTS`]) as the rack measurement's model: the
+/// post's section where the camera on the stored rod's handle sees it (above the plate, up
+/// to the handle's top), and the plate's top face.
+pub(crate) fn rack_post_model() -> crate::perception::rack::PostModel {
+    let part = |name: &str| {
+        RACK_PARTS
+            .iter()
+            .find(|(n, _, _)| *n == name)
+            .map_or(([0.0; 3], [0.0; 3]), |(_, c, h)| (*c, *h))
+    };
+    let (post, post_half) = part("rack_post");
+    let (plate, plate_half) = part("rack_plate");
+    let plate_top_m = plate[2] + plate_half[2];
+    let handle_top_m = robot::grounding_rod::RACK_STORE_HEIGHT_M
+        + robot::grounding_rod::HANDLE_CENTER_IN_ROD_M[2]
+        + 0.5 * robot::grounding_rod::HANDLE_LENGTH_M;
+    crate::perception::rack::PostModel {
+        centre_xy_m: [post[0], post[1]],
+        half_width_m: post_half[0],
+        band_z_m: [plate_top_m + 0.03, handle_top_m],
+        plate_centre_m: [plate[0], plate[1], plate_top_m],
+        plate_half_xy_m: [plate_half[0], plate_half[1]],
+    }
+}
+
 fn missing(key: &str) -> ParamError {
     ParamError::Value {
         key: format!("{SURVEY_SECTION}.{key}"),

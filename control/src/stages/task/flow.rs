@@ -14,9 +14,10 @@ use super::Task;
 use super::action::Action;
 use super::config::{TaskConfig, TaskKind};
 use super::steps::{
-    approach, begin, capture_handle, capture_rack, capture_wire, check_calibration, close_clamp,
-    drive, grasp_handle, grasp_rack, lift_out, look_handle, look_rack, look_wire, open_clamp,
-    panoramic, rack, raise_for_look, recalibrate, release, retreat, stow, to_pre_approach, unhook,
+    approach, begin, capture_empty_rack, capture_handle, capture_rack, capture_wire,
+    check_calibration, close_clamp, drive, grasp_handle, grasp_rack, lift_out, look_empty_rack,
+    look_handle, look_rack, look_wire, open_clamp, panoramic, rack, raise_for_look, recalibrate,
+    release, retreat, stow, to_pre_approach, unhook,
 };
 
 /// One step: its `/task/event` state name, the plan of its actions when it starts, the
@@ -146,7 +147,9 @@ const HANG: [&StepDef; 13] = [
 ];
 
 /// The remove's operation, after [`PREPARE`] (or after the hang, in the demo).
-const REMOVE: [&StepDef; 7] = [
+const REMOVE: [&StepDef; 9] = [
+    &look_empty_rack::STEP,
+    &capture_empty_rack::STEP,
     &look_handle::STEP,
     &capture_handle::STEP,
     &grasp_handle::STEP,

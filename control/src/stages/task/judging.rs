@@ -17,6 +17,9 @@
 //!   (a swaying hung rod is waited out, [`MAX_SWAY_HOLDS`] holds of [`SWAY_HOLD_S`]), the
 //!   stored rod's axis within [`RACK_AXIS_TOLERANCE_RAD`] of the vertical; gives the grasp
 //!   goal.
+//! * **Empty rack** ([`Task::judge_empty_rack`]): the post fit per capture, agreeing within
+//!   [`RACK_MAX_DISAGREEMENT_M`], moves the place the rod goes back to; none refuses
+//!   (`rack_not_seen`).
 //! * **Contact** ([`Task::judge_clamp_closed`], [`Task::judge_grasp`]): the clamp joint's
 //!   travel says whether the jaw closed on the wire (hook) or reads the rod's jaw (grasp,
 //!   coupled); a miss backs off and looks again, up to
@@ -36,12 +39,13 @@ use super::config::TaskKind;
 use super::flow::{Next, Stop};
 use super::memory::{HandleSite, Rod};
 use super::steps::{
-    capture_handle, capture_rack, capture_wire, close_clamp, grasp_handle, grasp_rack, look_handle,
-    look_rack, look_wire, recalibrate,
+    capture_empty_rack, capture_handle, capture_rack, capture_wire, close_clamp, grasp_handle,
+    grasp_rack, look_handle, look_rack, look_wire, recalibrate,
 };
 use crate::perception::PerceptionError;
 use crate::perception::handle::fit_handle;
 use crate::perception::point_cloud::to_point_cloud2;
+use crate::perception::rack;
 use crate::perception::roi::{PixelRoi, extract_roi};
 use crate::perception::wire;
 use crate::stages::wire_flow::PanoramicOutcome;
@@ -59,6 +63,11 @@ pub const SWAY_HOLD_S: f64 = 1.5;
 pub const RACK_AXIS_TOLERANCE_RAD: f64 = 3.0 * std::f64::consts::PI / 180.0;
 /// The handle's ROI spans the handle's length plus this at each end (m).
 const HANDLE_ROI_END_M: f64 = 0.03;
+/// Farthest depth kept for the empty rack's fit (m): the rack is seen from the handle
+/// look's 0.45 m stand-off.
+const RACK_ROI_DEPTH_M: f64 = 1.5;
+/// The empty rack's captures agree within this (m): a fifth of the rod's 1 cm seat.
+pub const RACK_MAX_DISAGREEMENT_M: f64 = 0.002;
 /// The handle's ROI margin (m at the handle).
 const HANDLE_ROI_MARGIN_M: f64 = 0.05;
 /// The handle's ROI depth margin (m).
@@ -126,6 +135,116 @@ impl Task {
                 ),
             )),
         }
+    }
+
+    /// The empty rack measured by its post ([`crate::perception::rack`]) in each capture:
+    /// the fits' mean shift from the survey moves the place the rod goes back to. Captures
+    /// must agree within [`RACK_MAX_DISAGREEMENT_M`]; none measured refuses
+    /// (`rack_not_seen`): the rod seats only within 1 cm, which a survey does not give.
+    ///
+    /// # Errors
+    /// `no_camera_info`, `rack_not_seen`.
+    pub fn judge_empty_rack(&mut self) -> Result<Next, Stop> {
+        let Some((camera, rays)) = self.robot.wrist.clone() else {
+            return Err(Stop::failed(
+                "no_camera_info",
+                "no /camera/color/camera_info",
+            ));
+        };
+        let base_from_map = self.robot.base_from_map()?;
+        let prior = base_from_map * self.config.site.map_from_rack;
+        let model = crate::tasks::survey::rack_post_model();
+        // What is published as the ROI cloud: the points around the rack's post and plate.
+        let near_rack = |p: &Point3<f64>| {
+            let q = prior.inverse() * p;
+            (q.xy().coords - nalgebra::Vector2::from(model.centre_xy_m)).norm()
+                <= 2.0 * rack::SEARCH_RADIUS_M
+                && q.z >= model.plate_centre_m[2] - 0.05
+                && q.z <= model.band_z_m[1] + 0.05
+        };
+        let mut shifts = Vec::new();
+        let mut reasons = Vec::new();
+        let mut cloud = Vec::new();
+        for (k, c) in self.memory.captures.iter().enumerate() {
+            // The whole image: the fit keeps the points near the post and over the plate
+            // (a pixel box around the post's axis cuts an obliquely seen face).
+            let roi = PixelRoi::full(&camera, 0.0, RACK_ROI_DEPTH_M);
+            let points: Vec<Point3<f64>> =
+                extract_roi(&c.depth, &rays, &roi, self.config.wire.stride_px)
+                    .points
+                    .iter()
+                    .map(|p| c.base_from_camera * p)
+                    .collect();
+            let eye = Point3::from(c.base_from_camera.translation.vector);
+            let fit = rack::fit_rack(&points, &prior, &eye, &model)
+                .map(|f| (f, points))
+                .map_err(|e| e.to_string());
+            match fit {
+                Ok((f, points)) => {
+                    shifts.push((f.shift_m, f.rms_m));
+                    cloud.extend(points.into_iter().filter(near_rack));
+                }
+                Err(e) => reasons.push(format!("capture {k}: {e}")),
+            }
+        }
+        let disagreement = shifts
+            .iter()
+            .flat_map(|a| shifts.iter().map(move |b| (a.0 - b.0).norm()))
+            .fold(0.0, f64::max);
+        if shifts.is_empty() || disagreement > RACK_MAX_DISAGREEMENT_M {
+            if !shifts.is_empty() {
+                reasons.push(format!(
+                    "the captures disagree by {:.1} mm",
+                    disagreement * 1e3
+                ));
+            }
+            return Err(Stop::refused(
+                "rack_not_seen",
+                format!(
+                    "the empty rack was not measured ({}): the rod seats within 1 cm, more than the survey gives; check the site file's rack pose and that nothing hides the rack",
+                    reasons.join("; ")
+                ),
+            ));
+        }
+        let stamp = self
+            .memory
+            .captures
+            .last()
+            .map(|c| c.stamp)
+            .unwrap_or_default();
+        self.out.push(
+            PERCEPTION_ROI_CLOUD,
+            to_point_cloud2(
+                &cloud,
+                Header {
+                    stamp,
+                    frame_id: BASE_LINK.to_owned(),
+                },
+            )
+            .into(),
+        );
+        let n = shifts.len() as f64;
+        let shift = shifts.iter().map(|s| s.0).sum::<Vector3<f64>>() / n;
+        let rms = shifts.iter().map(|s| s.1).fold(0.0, f64::max);
+        let map_from_rack = self.config.site.map_from_rack * nalgebra::Translation3::from(shift);
+        self.memory.stored_rod_seen = Some(map_from_rack * robot::grounding_rod::rack_from_rod());
+        let at = map_from_rack.translation.vector;
+        self.event(
+            TaskEvent::INFO,
+            capture_empty_rack::NAME,
+            "rack_measured",
+            format!(
+                "rack at ({:.4}, {:.4}, {:.4}) m in map from {} captures, {:.1} mm from the site map (post fit rms {:.2} mm, captures within {:.1} mm)",
+                at.x,
+                at.y,
+                at.z,
+                shifts.len(),
+                shift.norm() * 1e3,
+                rms * 1e3,
+                disagreement * 1e3
+            ),
+        );
+        Ok(Next::Following)
     }
 
     /// The panoramic frame the step waited for: a fix goes on, a miss tries the next frame.

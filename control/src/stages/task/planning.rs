@@ -35,6 +35,9 @@ use crate::tasks::site::rod_capsules;
 pub const CHECK_LOOK_ABOVE_M: f64 = 0.15;
 /// Elevations of the view of the stored rod's handle, lowest first (deg).
 pub const RACK_LOOK_ELEVATIONS_DEG: [f64; 4] = [0.0, 20.0, 35.0, 50.0];
+/// Elevations of the look at the empty rack, in order of preference (deg): from above
+/// first, where the rack's base plate faces the camera.
+pub const EMPTY_RACK_LOOK_ELEVATIONS_DEG: [f64; 4] = [35.0, 50.0, 20.0, 0.0];
 /// Via point spacing of a move replanned as a straight tool line (m).
 pub const DETOUR_LINE_STEP_M: f64 = 0.05;
 /// Preferred height of `tool0` above the arm base when the lift can choose (m): the arm
@@ -668,7 +671,14 @@ impl Planner<'_> {
         let (centre, axis) = self.handle_prior_in_base(site)?;
         let up = self.handle_image_up(site, &centre)?;
         if site == HandleSite::Rack {
-            return self.look_at_stored_rod(&centre, &up, &q, lift);
+            return self.look_at_stored_rod(
+                &centre,
+                &up,
+                &q,
+                lift,
+                &RACK_LOOK_ELEVATIONS_DEG,
+                true,
+            );
         }
         let (tool, look_lift, q_look) = self.look_goal(&centre, &axis, &up, &q)?;
         let mut actions = Vec::new();
@@ -683,11 +693,43 @@ impl Planner<'_> {
         Ok(actions)
     }
 
+    /// The camera on the empty rack (its post and base plate, beside where the stored rod's
+    /// handle would be), as [`Self::look_at_stored_rod`] from the elevations of
+    /// [`EMPTY_RACK_LOOK_ELEVATIONS_DEG`] and without the coupling probe.
+    ///
+    /// # Errors
+    /// As [`Self::look_at_stored_rod`].
+    pub fn look_at_empty_rack(&self) -> Result<Vec<Action>, Stop> {
+        let q = self.q()?;
+        let lift = self.lift()?;
+        let (handle, _) = self.handle_prior_in_base(HandleSite::Rack)?;
+        // Aimed between the handle's place and the post, so that the post's faces are whole
+        // in the image (at the handle alone the post is near the image's edge).
+        let model = crate::tasks::survey::rack_post_model();
+        let [px, py] = model.centre_xy_m;
+        let handle_z_in_rack = robot::grounding_rod::RACK_STORE_HEIGHT_M
+            + robot::grounding_rod::HANDLE_CENTER_IN_ROD_M[2];
+        let post = self.base_from_map()?
+            * self.task.config.site.map_from_rack
+            * Point3::new(px, py, handle_z_in_rack);
+        let centre = Point3::from((handle.coords + post.coords) * 0.5);
+        let up = self.handle_image_up(HandleSite::Rack, &centre)?;
+        self.look_at_stored_rod(
+            &centre,
+            &up,
+            &q,
+            lift,
+            &EMPTY_RACK_LOOK_ELEVATIONS_DEG,
+            false,
+        )
+    }
+
     /// The stored rod stands beside the arm, below its base: the camera looks at its handle
     /// from [`TaskConfig::standoff_m`](super::TaskConfig::standoff_m) on the arm's side, from
-    /// the lowest elevation of [`RACK_LOOK_ELEVATIONS_DEG`] the arm reaches without collision
-    /// at the current lift. Before it, the coupling probe: the empty clamp closes to full
-    /// travel (it jumps to the rod's open jaw when the end effector engages the stored rod).
+    /// the first of `elevations_deg` the arm reaches without collision at the current lift
+    /// (the handle's look: the lowest of [`RACK_LOOK_ELEVATIONS_DEG`]). Before it, the coupling probe: the empty clamp closes to full
+    /// travel (it jumps to the rod's open jaw when the end effector engages the stored rod),
+    /// when `probe`.
     ///
     /// # Errors
     /// The last elevation's refusal; `bad_site_map` for a rack below the arm's base.
@@ -697,6 +739,8 @@ impl Planner<'_> {
         up: &Vector3<f64>,
         q: &[f64; 6],
         lift: f64,
+        elevations_deg: &[f64],
+        probe: bool,
     ) -> Result<Vec<Action>, Stop> {
         let mut towards_arm = self.arm_base_point(lift) - centre;
         towards_arm.z = 0.0;
@@ -706,7 +750,7 @@ impl Planner<'_> {
         let mount = self.task.robot.tool0_from_camera_now();
         let world = self.world(lift)?;
         let mut last = None;
-        for elevation_deg in RACK_LOOK_ELEVATIONS_DEG {
+        for &elevation_deg in elevations_deg {
             let e = elevation_deg.to_radians();
             let eye = centre
                 + (towards_arm * e.cos() + Vector3::z() * e.sin()) * self.task.config.standoff_m;
@@ -719,8 +763,9 @@ impl Planner<'_> {
             match attempt {
                 Ok(plan) => {
                     let mut actions = Vec::new();
-                    if self.task.robot.clamp_m.unwrap_or(0.0)
-                        < CLAMP_TRAVEL_M - CLAMP_CONTACT_TOLERANCE_M
+                    if probe
+                        && self.task.robot.clamp_m.unwrap_or(0.0)
+                            < CLAMP_TRAVEL_M - CLAMP_CONTACT_TOLERANCE_M
                     {
                         actions.push(self.clamp_action(
                             ClampCommand::CLOSE,

@@ -21,6 +21,8 @@
 //! | [`approach`] | hang | the hook across the wire | - |
 //! | [`close_clamp`] | hang | close the clamp | the clamp's travel (clamped or missed) |
 //! | [`release`] | hang | back off the hung rod | - |
+//! | [`look_empty_rack`] | remove | camera on the empty rack (unless the stored rod was seen) | - |
+//! | [`capture_empty_rack`] | remove | wrist captures | the rack's post fit: where the rod goes back |
 //! | [`look_handle`] | remove | camera level with the hung rod's handle | - |
 //! | [`capture_handle`] | remove | wrist captures | the hung rod's handle fit (sway) |
 //! | [`grasp_handle`] | remove | pre-grasp, lift, approach | the clamp joint (coupled) |
@@ -32,6 +34,7 @@
 
 pub(crate) mod approach;
 pub(crate) mod begin;
+pub(crate) mod capture_empty_rack;
 pub(crate) mod capture_handle;
 pub(crate) mod capture_rack;
 pub(crate) mod capture_wire;
@@ -41,6 +44,7 @@ pub(crate) mod drive;
 pub(crate) mod grasp_handle;
 pub(crate) mod grasp_rack;
 pub(crate) mod lift_out;
+pub(crate) mod look_empty_rack;
 pub(crate) mod look_handle;
 pub(crate) mod look_rack;
 pub(crate) mod look_wire;

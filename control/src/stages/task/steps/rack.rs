@@ -1,6 +1,6 @@
-//! `rack` (remove): the rod over the rack, into its holders (where the stored rod was seen,
-//! else the site map's place), and the empty gripper backs off; the rod is then on the
-//! rack.
+//! `rack` (remove): the rod over the rack, into its holders (where the stored rod was seen
+//! by the hang, or where `capture_empty_rack` measured the rack), and the empty gripper backs
+//! off; the rod is then on the rack.
 
 use nalgebra::Vector3;
 

@@ -39,7 +39,7 @@ use robot::robot_state::{RobotStateConfig, RobotStateStage};
 use crate::perception::WIRE_RADIUS_M;
 use crate::perception::point_cloud::{CameraModel, RayTable, wrist_nominal};
 use crate::perception::synthetic::{
-    self, CylinderShape, NoiseModel, Scene, render_depth, render_wire_rgb,
+    self, BoxShape, CylinderShape, NoiseModel, Scene, render_depth, render_wire_rgb,
 };
 use crate::stages::task::{TaskConfig, TaskKind, TaskStage};
 use crate::tasks::poses;
@@ -74,6 +74,9 @@ pub struct Behaviour {
     pub wrist_wire: bool,
     /// `map_from_rod` of the stored rod (its handle is seen), if in the rack.
     pub stored_rod: Option<Isometry3<f64>>,
+    /// `map_from_rack` of the rack whose parts the wrist camera sees (the remove's empty
+    /// rack), if any.
+    pub rack: Option<Isometry3<f64>>,
     /// `map_from_rod` of the rod on the wire, if hung.
     pub hung_rod: Option<Isometry3<f64>>,
     /// The hung rod sways: its handle is this far along the wire (m), alternately either side,
@@ -103,6 +106,7 @@ impl Behaviour {
             panoramic_wire: true,
             wrist_wire: true,
             stored_rod: Some(site.map_from_stored_rod()),
+            rack: None,
             hung_rod: None,
             sway_m: 0.0,
             hook_hits: vec![true],
@@ -257,6 +261,7 @@ impl Rig {
         if matches!(kind, TaskKind::Remove) {
             behaviour.hung_rod = rod_hung_on_prior(&config.site, &config.model);
             behaviour.stored_rod = None;
+            behaviour.rack = Some(config.site.map_from_rack);
         }
         edit(&mut config, &mut behaviour);
         Self::new(config, behaviour)
@@ -512,6 +517,16 @@ impl Rig {
                 radius_m: HANDLE_RADIUS_M,
                 half_length_m: HANDLE_LENGTH_M * 0.5,
             });
+        }
+        if let Some(map_from_rack) = self.behaviour.rack {
+            for (_, centre, half) in crate::tasks::survey::RACK_PARTS {
+                scene.boxes.push(BoxShape {
+                    camera_from_box: camera_from_map
+                        * map_from_rack
+                        * Isometry3::translation(centre[0], centre[1], centre[2]),
+                    half_extents_m: Vector3::from(half),
+                });
+            }
         }
         self.captures += 1;
         let mut rng = SplitMix64::new(0x5EED + self.captures as u64);

@@ -334,6 +334,47 @@ fn release_backs_off_the_hung_rod_and_retreat_stows() {
     assert_done(&rig);
 }
 
+/// The remove measures the empty rack before it fetches the rod: a rack 2.5 cm off the
+/// site map is found where it is, and a rack out of view refuses before anything is taken
+/// off the wire. The demo's hang saw the stored rod: its remove measures nothing.
+#[test]
+fn capture_empty_rack_measures_the_rack_or_refuses() {
+    let shift = Vector3::new(0.02, -0.015, 0.0);
+    let rig = Rig::with(TaskKind::Remove, |c, b| {
+        c.self_maintenance = false;
+        b.rack = Some(c.site.map_from_rack * nalgebra::Translation3::from(shift));
+    });
+    let mut rig = rig;
+    rig.run(LIMIT_S);
+    assert_done(&rig);
+    let measured = with_reason(&rig, "rack_measured");
+    assert_eq!(measured.len(), 1, "{:#?}", rig.events());
+    let mm: f64 = measured[0]
+        .text
+        .split(" mm from the site map")
+        .next()
+        .and_then(|t| t.rsplit(' ').next())
+        .and_then(|t| t.parse().ok())
+        .expect("the shift in the text");
+    assert!(
+        (mm - shift.norm() * 1e3).abs() < 1.0,
+        "{}",
+        measured[0].text
+    );
+
+    let mut rig = Rig::with(TaskKind::Remove, |c, b| {
+        c.self_maintenance = false;
+        b.rack = None;
+    });
+    rig.run(LIMIT_S);
+    assert_ended(&rig, TaskEvent::REFUSED, "rack_not_seen");
+    assert_eq!(count(&rig, "grasp_handle", ARM_JOINT_TRAJECTORY), 0);
+
+    let rig = quick(TaskKind::Demo);
+    assert_eq!(count(&rig, "look_empty_rack", ARM_JOINT_TRAJECTORY), 0);
+    assert!(with_reason(&rig, "rack_measured").is_empty());
+}
+
 #[test]
 fn the_remove_runs_its_steps_in_order_and_racks_the_rod() {
     let rig = quick(TaskKind::Remove);
@@ -344,6 +385,8 @@ fn the_remove_runs_its_steps_in_order_and_racks_the_rod() {
             "begin",
             "drive",
             "stow",
+            "look_empty_rack",
+            "capture_empty_rack",
             "look_handle",
             "capture_handle",
             "grasp_handle",
@@ -430,7 +473,7 @@ fn the_demo_hands_the_hang_over_to_the_remove() {
     let retreat = steps.iter().position(|s| s == "retreat");
     assert_eq!(
         retreat.and_then(|k| steps.get(k + 1)).map(String::as_str),
-        Some("look_handle"),
+        Some("look_empty_rack"),
         "{steps:?}"
     );
 }
