@@ -187,8 +187,8 @@ fn wind_speeds_and_light_hours_choose_the_conditions() {
 }
 
 /// `--sites seeded`: each trial's bay is drawn from its seed and the robot gets the
-/// simulated crew's survey; the results say so, the hangs succeed with no unsafe command,
-/// and the calibration experiments refuse the option.
+/// simulated crew's survey; the results say so, the hang and the remove succeed with no
+/// unsafe command, and the calibration experiments refuse the option.
 #[test]
 fn task_experiments_run_on_seeded_sites_with_a_survey() {
     let tmp = tempfile::tempdir().expect("tempdir");
@@ -221,18 +221,17 @@ fn task_experiments_run_on_seeded_sites_with_a_survey() {
     );
     let runs = results["sections"]["runs"].as_array().expect("runs");
     assert_eq!(runs.len(), 4, "{results}");
-    // The hangs (the rack is measured before the rod is taken) send no unsafe command; the
-    // remove racks the rod at the survey's rack pose, unmeasured, which a seeded bay's survey
-    // error can make miss (the experiment counts it).
-    for run in runs.iter().filter(|r| r["task"] == "hang") {
-        assert_eq!(run["unsafe_commands"], 0, "{run}");
+    // No run sends an unsafe command, and with the self-maintenance on the hang and the
+    // remove (which measures the empty rack the survey places to a few cm) succeed.
+    assert_eq!(results["sections"]["unsafe_commands"], 0, "{results}");
+    for task in ["hang", "remove"] {
+        assert!(
+            runs.iter().any(|r| r["task"] == task
+                && r["self_calibration"] == true
+                && r["success"] == true),
+            "{task}: {results}"
+        );
     }
-    // A hang on a seeded bay with the self-maintenance on succeeds.
-    assert!(
-        runs.iter()
-            .any(|r| r["task"] == "hang" && r["self_calibration"] == true && r["success"] == true),
-        "{results}"
-    );
     let bad = Command::new(env!("CARGO_BIN_EXE_rodlog"))
         .args(["experiment", "noise", "--sites", "seeded", "--out", &out_s])
         .output()
