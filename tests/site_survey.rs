@@ -189,4 +189,12 @@ fn self_calibration_at_a_seeded_site_plans_its_views_from_the_survey() {
         "{last}"
     );
     assert!(last["trans_error_mm"].as_f64().expect("mm") <= mm, "{last}");
+    // The recording keeps the survey: its replay plans the same views and solves the same.
+    let check = rodlog(&["replay", &rec_s, "--check"]);
+    assert!(
+        check.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&check.stdout),
+        String::from_utf8_lossy(&check.stderr)
+    );
 }

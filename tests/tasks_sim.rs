@@ -150,6 +150,8 @@ fn a_knocked_camera_is_noticed_recalibrated_and_the_rod_still_hung() {
         v["operation_s"].as_f64().unwrap_or(f64::INFINITY) < 300.0,
         "{v}"
     );
+    // The drift check, the 18 views, the solve and the hang after it replay identically.
+    assert_replays_identically(&rec);
 }
 
 #[test]
