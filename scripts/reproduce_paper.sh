@@ -1,0 +1,136 @@
+#!/usr/bin/env bash
+# Reproduces the paper's tables and figures, with rodlog's own rows beside them, in one run
+# (ARCHITECTURE.md section 7): every experiment at the paper's protocol, then one report.
+#
+#   scripts/reproduce_paper.sh [--out DIR] [--ray ADDRESS] [--shards N] [--shecar DIR]
+#                              [--rodlog BIN] [--size full|smoke]
+#
+# --out DIR       where everything goes (default results/paper): DIR/NAME/ per experiment
+#                 (report.md, results.json, plots/) and DIR/report.md, the whole report.
+# --ray ADDRESS   run each experiment sharded on a Ray cluster (scripts/ray/rodlog_ray.py;
+#                 the binary and DIR must be at the same paths on every worker).
+# --shards N      shards per experiment on Ray (default 2 per worker CPU the head reports).
+# --shecar DIR    the shecar sample (the paper's dataset 2; GPL-3.0, not in the repository).
+#                 To get it: git clone --depth 1 https://github.com/STAR-Center/shecar
+#                 and pass --shecar shecar/data/monocular (00.jpg..17.jpg, handposes.txt,
+#                 intrinsic.txt). Default: $RODLOG_SHARED_DATA/shecar or ../shared/data/shecar.
+#                 Without it the matchers and datasets experiments run without shecar and
+#                 the report says so at its top.
+# --rodlog BIN    the binary (default target/release/rodlog, built if missing).
+# --size SIZE     full (the protocol below, default) or smoke (a trial or two of each, small
+#                 images: checks the pipeline, its numbers mean nothing).
+#
+# The protocol (full): matchers every set; noise 6 levels x 100; motions 100 per count;
+# datasets 100 + shecar; ablation 100 per cell; tasks 100 seeded sites (Table 4); light
+# 50 runs per hour on seeded sites (Table 5); wind 0-4 m/s in 0.5 m/s bins, 50 each; maintenance
+# 50 per bump bin.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+out=results/paper
+ray=""
+shards=""
+shecar=""
+rodlog=""
+size=full
+while [ $# -gt 0 ]; do
+    case "$1" in
+        --out) out=$2; shift 2 ;;
+        --ray) ray=$2; shift 2 ;;
+        --shards) shards=$2; shift 2 ;;
+        --shecar) shecar=$2; shift 2 ;;
+        --rodlog) rodlog=$2; shift 2 ;;
+        --size) size=$2; shift 2 ;;
+        -h|--help) sed -n '2,29p' "$0"; exit 0 ;;
+        *) echo "reproduce_paper: unknown option $1 (--help lists them)" >&2; exit 2 ;;
+    esac
+done
+case "$size" in
+    full|smoke) ;;
+    *) echo "reproduce_paper: --size is full or smoke, not $size" >&2; exit 2 ;;
+esac
+
+if [ -z "$rodlog" ]; then
+    rodlog=target/release/rodlog
+    [ -x "$rodlog" ] || cargo build --release --locked
+fi
+[ -x "$rodlog" ] || { echo "reproduce_paper: $rodlog is not an executable" >&2; exit 2; }
+
+# shecar: a folder with 00.jpg..17.jpg, handposes.txt and intrinsic.txt, seen by rodlog as
+# $RODLOG_SHARED_DATA/shecar.
+shecar_note=""
+if [ -n "$shecar" ]; then
+    [ -f "$shecar/handposes.txt" ] || { echo "reproduce_paper: $shecar has no handposes.txt (see --help for the download)" >&2; exit 2; }
+    data=$(mktemp -d)
+    ln -s "$(cd "$shecar" && pwd)" "$data/shecar"
+    export RODLOG_SHARED_DATA="$data"
+elif [ -f "${RODLOG_SHARED_DATA:-}/shecar/handposes.txt" ]; then
+    :
+elif [ -f ../shared/data/shecar/handposes.txt ]; then
+    RODLOG_SHARED_DATA="$(cd ../shared/data && pwd)"
+    export RODLOG_SHARED_DATA
+else
+    shecar_note="**The shecar sample was not found: the matchers and datasets tables below have no shecar rows (the paper's dataset 2).** Get it with \`git clone --depth 1 https://github.com/STAR-Center/shecar\` and rerun with \`--shecar shecar/data/monocular\`."
+fi
+
+# name|options at full size|options at smoke size
+protocol=(
+    "matchers||--trials 1 --image-scale 0.25"
+    "noise|--trials 100|--trials 1 --image-scale 0.25"
+    "motions|--trials 100|--trials 1 --image-scale 0.25"
+    "datasets|--trials 100|--trials 1 --image-scale 0.25"
+    "ablation|--trials 100|--trials 1 --image-scale 0.25"
+    "tasks|--trials 100 --sites seeded|--trials 1 --sites seeded --image-scale 0.5"
+    "light|--trials 50 --sites seeded|--trials 1 --hours 12,18.5 --sites seeded --image-scale 0.5"
+    "wind|--trials 50 --sites seeded --speeds 0,0.5,1,1.5,2,2.5,3,3.5,4|--trials 1 --speeds 1,3 --sites seeded --image-scale 0.5"
+    "maintenance|--trials 50 --sites seeded|--trials 1 --sites seeded --image-scale 0.5"
+)
+
+mkdir -p "$out"
+started=$(date +%s)
+rows=""
+for entry in "${protocol[@]}"; do
+    IFS='|' read -r name full smoke <<<"$entry"
+    opts=$full
+    [ "$size" = smoke ] && opts=$smoke
+    dir="$out/$name"
+    rm -rf "$dir"
+    t0=$(date +%s)
+    echo "== $name $opts" >&2
+    # shellcheck disable=SC2086 # the options are words
+    if [ -n "$ray" ]; then
+        n=${shards:-$("${RODLOG_REF_VENV:-.venv-ref}/bin/python" -c "import ray; ray.init(address='$ray'); print(max(1, int(ray.cluster_resources().get('CPU', 1)) * 2))" 2>/dev/null | tail -1)}
+        "${RODLOG_REF_VENV:-.venv-ref}/bin/python" scripts/ray/rodlog_ray.py --address "$ray" \
+            --rodlog "$rodlog" experiment "$name" --shards "$n" --out "$dir" -- $opts >&2
+    else
+        "$rodlog" experiment "$name" $opts --out "$dir" >&2
+    fi
+    wall=$(( $(date +%s) - t0 ))
+    rows="$rows| [$name]($name/report.md) | \`$opts\` | $wall |"$'\n'
+done
+total=$(( $(date +%s) - started ))
+
+commit=$(git rev-parse HEAD 2>/dev/null || echo unknown)
+dirty=$(git status --porcelain 2>/dev/null | grep -qv '^??' && echo " (with uncommitted changes)" || true)
+{
+    echo "# The paper, reproduced"
+    echo
+    [ -n "$shecar_note" ] && { echo "$shecar_note"; echo; }
+    [ "$size" = smoke ] && { echo "**Smoke size: a trial or two per condition on small images. These numbers check the pipeline and mean nothing.**"; echo; }
+    echo "Made by \`scripts/reproduce_paper.sh --size $size${ray:+ --ray $ray}\` at commit \`$commit\`$dirty"
+    echo "on $(uname -sm), $(nproc) cores, $(date -u +%Y-%m-%d); wall time ${total} s"
+    echo "(on a Ray cluster of N one-CPU workers the experiments' runs divide by about N: they are"
+    echo "independent trials; each experiment's merge is seconds)."
+    echo
+    echo "| experiment | options | wall (s) |"
+    echo "|---|---|---|"
+    printf '%s' "$rows"
+    echo
+    for entry in "${protocol[@]}"; do
+        IFS='|' read -r name _ _ <<<"$entry"
+        echo
+        # Each experiment's report, its headings one level down and its pictures re-rooted.
+        sed -e 's/^#/##/' -e "s#](plots/#]($name/plots/#g" -e "s#](images/#]($name/images/#g" "$out/$name/report.md"
+    done
+} > "$out/report.md"
+echo "$out/report.md"
