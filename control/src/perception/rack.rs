@@ -15,8 +15,10 @@
 //! face's width; its ends are points with [`EDGE_SUPPORT`] others close inside). Points farther from the square than [`TRIM_FACTOR`] times the RMS, and than
 //! [`TRIM_FLOOR_M`], are dropped after the first rounds. The start is the points' centroid pushed `h` away from the camera (the
 //! visible faces are the near ones). The height comes from the rack's base plate, a
-//! horizontal face around the post: the median height of the points over it (away from the
-//! post), which depth outliers cannot move.
+//! horizontal face around the post: first the most populated height slice over the plate
+//! (before the post's band is chosen, so that a survey's height error cannot put the plate
+//! in it), then the median height of the points over the plate away from the post, which
+//! depth outliers cannot move.
 
 use nalgebra::{Isometry3, Point3, Translation3, Vector2, Vector3};
 
@@ -40,6 +42,11 @@ pub const MIN_FACE_COS: f64 = 0.4;
 pub const EDGE_SUPPORT: usize = 5;
 /// See [`EDGE_SUPPORT`] (m).
 pub const EDGE_SUPPORT_M: f64 = 0.001;
+/// Residuals above this are always dropped after the first rounds (m).
+pub const TRIM_CAP_M: f64 = 0.02;
+/// Half the height window searched for the plate around the prior (m): 4 sigma of a
+/// survey's 2 cm.
+pub const PLATE_SEARCH_M: f64 = 0.08;
 /// Rounds of the fit at most.
 pub const FIT_ROUNDS: usize = 30;
 /// Largest RMS distance of the kept points to the square (m).
@@ -123,6 +130,45 @@ fn closest_on_square(p: Vector2<f64>, h: f64) -> Vector2<f64> {
     }
 }
 
+/// The plate's height in the prior rack frame: the most populated 1 cm slice of the points
+/// over the plate's inner part (a survey's xy error away from its rim) within
+/// [`PLATE_SEARCH_M`] of the model, refined by the median of the points within 1 cm of it.
+/// The post's faces spread over every slice; the plate fills one.
+fn plate_height_mode(local: &[Point3<f64>], model: &PostModel) -> Result<f64, RackFitError> {
+    let inner = |q: &&Point3<f64>| {
+        let l = q.xy().coords - Vector2::new(model.plate_centre_m[0], model.plate_centre_m[1]);
+        l.x.abs() <= model.plate_half_xy_m[0] - 0.06
+            && l.y.abs() <= model.plate_half_xy_m[1] - 0.06
+            && (q.z - model.plate_centre_m[2]).abs() <= PLATE_SEARCH_M
+    };
+    let heights: Vec<f64> = local.iter().filter(inner).map(|q| q.z).collect();
+    let slices = (2.0 * PLATE_SEARCH_M / 0.01).round() as usize;
+    let mut count = vec![0usize; slices + 1];
+    let low = model.plate_centre_m[2] - PLATE_SEARCH_M;
+    for z in &heights {
+        let k = ((z - low) / 0.01).floor().clamp(0.0, slices as f64) as usize;
+        count[k] += 1;
+    }
+    let (best, n) = count
+        .iter()
+        .enumerate()
+        .max_by_key(|(k, n)| (**n, usize::MAX - k))
+        .map_or((0, 0), |(k, n)| (k, *n));
+    if n < MIN_PLATE_POINTS {
+        return Err(RackFitError::NoPlate {
+            found: n,
+            needed: MIN_PLATE_POINTS,
+        });
+    }
+    let mode = low + (best as f64 + 0.5) * 0.01;
+    let mut near: Vec<f64> = heights
+        .into_iter()
+        .filter(|z| (z - mode).abs() <= 0.01)
+        .collect();
+    near.sort_by(f64::total_cmp);
+    Ok(near[near.len() / 2])
+}
+
 /// Measures the rack (module docs) from `points` (any frame), the prior `frame_from_rack`
 /// and the camera's position `eye` in the same frame.
 ///
@@ -137,7 +183,13 @@ pub fn fit_rack(
     let rack_from_frame = prior.inverse();
     let axis = Vector2::from(model.centre_xy_m);
     let h = model.half_width_m;
-    let local: Vec<Point3<f64>> = points.iter().map(|p| rack_from_frame * p).collect();
+    let mut local: Vec<Point3<f64>> = points.iter().map(|p| rack_from_frame * p).collect();
+    // A first height from the plate, so that a survey's height error does not bring the
+    // plate into the post's band.
+    let dz0 = plate_height_mode(&local, model)? - model.plate_centre_m[2];
+    for q in &mut local {
+        q.z -= dz0;
+    }
     let band: Vec<Vector2<f64>> = local
         .iter()
         .filter(|q| {
@@ -164,7 +216,7 @@ pub fn fit_rack(
             l - closest_on_square(l, h)
         };
         if round >= 2 {
-            let limit = (TRIM_FACTOR * rms).max(TRIM_FLOOR_M);
+            let limit = (TRIM_FACTOR * rms).clamp(TRIM_FLOOR_M, TRIM_CAP_M);
             for (k, q) in band.iter().enumerate() {
                 keep[k] = residual(q, c).norm() <= limit;
             }
@@ -258,7 +310,7 @@ pub fn fit_rack(
     let shift_m = Vector3::new(
         c.x - axis.x,
         c.y - axis.y,
-        plate_z - model.plate_centre_m[2],
+        dz0 + plate_z - model.plate_centre_m[2],
     );
     Ok(RackFit {
         frame_from_rack: prior * Translation3::from(shift_m),
@@ -339,10 +391,16 @@ mod tests {
         );
         assert!(error.xy().norm() < 1e-3, "{error}");
         assert!(error.z.abs() < 1e-3, "{error}");
+        // A prior 5 cm too low (2.5 sigma of a survey) still finds the plate before it
+        // chooses the post's band.
+        let low = Isometry3::translation(0.0, 0.0, -0.05) * prior;
+        let fit = fit_rack(&points, &low, &eye, &POST)?;
+        let error = fit.shift_m - (truth_shift + Vector3::new(0.0, 0.0, 0.05));
+        assert!(error.norm() < 1e-3, "{error}");
         let far = Isometry3::translation(0.5, 0.0, 0.0) * prior;
         assert!(matches!(
             fit_rack(&points, &far, &eye, &POST),
-            Err(RackFitError::TooFewPoints { .. })
+            Err(RackFitError::TooFewPoints { .. } | RackFitError::NoPlate { .. })
         ));
         Ok(())
     }

@@ -151,6 +151,24 @@ impl SiteMap {
         self.map_from_rack * rack_from_rod()
     }
 
+    /// The same site with the rack, its parts and its stored rod moved rigidly to
+    /// `map_from_rack` (a measured rack).
+    #[must_use]
+    pub fn with_rack_at(&self, map_from_rack: Isometry3<f64>) -> Self {
+        let moved = map_from_rack * self.map_from_rack.inverse();
+        let mut site = self.clone();
+        for (name, b) in &mut site.obstacles {
+            if crate::tasks::survey::RACK_PARTS
+                .iter()
+                .any(|(part, _, _)| part == name)
+            {
+                b.frame_from_box = moved * b.frame_from_box;
+            }
+        }
+        site.map_from_rack = map_from_rack;
+        site
+    }
+
     /// The obstacles in `base_link` for `base_from_map` (odometry): the fixed boxes, the
     /// ground below `z = 0`, the other conductors and the target conductor `wire` (a segment
     /// in `map`, e.g. the measured axis, or the prior's when none is measured yet), each
@@ -263,6 +281,36 @@ mod tests {
             rod.translation.vector.z,
             RACK_PEDESTAL_M + 0.12,
             epsilon = 1e-12
+        );
+    }
+
+    /// A measured rack moves the rack's parts and its stored rod, nothing else.
+    #[test]
+    fn a_measured_rack_moves_the_racks_bodies_only() {
+        let site = SiteMap::default_bay();
+        let shift = Vector3::new(0.03, -0.02, 0.01);
+        let moved = site
+            .with_rack_at(Isometry3::translation(shift.x, shift.y, shift.z) * site.map_from_rack);
+        let rack_parts: Vec<&str> = crate::tasks::survey::RACK_PARTS
+            .iter()
+            .map(|p| p.0)
+            .collect();
+        for ((name, a), (_, b)) in site.obstacles.iter().zip(&moved.obstacles) {
+            let d = b.frame_from_box.translation.vector - a.frame_from_box.translation.vector;
+            let expected = if rack_parts.contains(&name.as_str()) {
+                shift
+            } else {
+                Vector3::zeros()
+            };
+            assert!((d - expected).norm() < 1e-12, "{name}: {d}");
+        }
+        let d = moved.map_from_stored_rod().translation.vector
+            - site.map_from_stored_rod().translation.vector;
+        assert!((d - shift).norm() < 1e-12);
+        assert!(
+            rack_parts
+                .iter()
+                .all(|p| site.obstacles.iter().any(|(n, _)| n == p))
         );
     }
 

@@ -228,6 +228,7 @@ impl Task {
         let rms = shifts.iter().map(|s| s.1).fold(0.0, f64::max);
         let map_from_rack = self.config.site.map_from_rack * nalgebra::Translation3::from(shift);
         self.memory.stored_rod_seen = Some(map_from_rack * robot::grounding_rod::rack_from_rod());
+        self.memory.rack_seen = Some(map_from_rack);
         let at = map_from_rack.translation.vector;
         self.event(
             TaskEvent::INFO,

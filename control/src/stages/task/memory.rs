@@ -57,6 +57,9 @@ pub(crate) struct Memory {
     pub grasp_goal: Option<Isometry3<f64>>,
     /// `map_from_rod` of the stored rod as the wrist camera saw it.
     pub stored_rod_seen: Option<Isometry3<f64>>,
+    /// `map_from_rack` as `capture_empty_rack` measured it: the remove's collision world
+    /// puts the rack's parts there.
+    pub rack_seen: Option<Isometry3<f64>>,
     /// The lift height of the look at the wire.
     pub look_lift_m: Option<f64>,
     /// The recovery's actions and the step after it.
@@ -85,6 +88,7 @@ impl Memory {
             hook_goal: None,
             grasp_goal: None,
             stored_rod_seen: None,
+            rack_seen: None,
             look_lift_m: None,
             recovery: None,
             done_reason: "done",

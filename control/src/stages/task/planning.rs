@@ -169,7 +169,15 @@ impl Planner<'_> {
             let half = d.normalize() * 3.0;
             (map_from_base * (p - half), map_from_base * (p + half))
         });
-        let site = &self.task.config.site;
+        // The rack where the remove measured it, else where the site map has it.
+        let moved;
+        let site = match self.task.memory.rack_seen {
+            Some(map_from_rack) => {
+                moved = self.task.config.site.with_rack_at(map_from_rack);
+                &moved
+            }
+            None => &self.task.config.site,
+        };
         let mut world = site.collision_world(&base_from_map, wire);
         world.extend(&CollisionWorld::robot_body(self.model(), lift_m));
         match rod {
