@@ -137,6 +137,29 @@ impl Task {
         }
     }
 
+    /// Publishes `cloud` (`base_link`) on the ROI cloud topic, stamped with the last
+    /// capture's stamp, which it returns.
+    fn publish_capture_cloud(&mut self, cloud: &[Point3<f64>]) -> msgs::builtin_interfaces::Time {
+        let stamp = self
+            .memory
+            .captures
+            .last()
+            .map(|c| c.stamp)
+            .unwrap_or_default();
+        self.out.push(
+            PERCEPTION_ROI_CLOUD,
+            to_point_cloud2(
+                cloud,
+                Header {
+                    stamp,
+                    frame_id: BASE_LINK.to_owned(),
+                },
+            )
+            .into(),
+        );
+        stamp
+    }
+
     /// The empty rack measured by its post ([`crate::perception::rack`]) in each capture:
     /// the fits' mean shift from the survey moves the place the rod goes back to. Captures
     /// must agree within [`RACK_MAX_DISAGREEMENT_M`]; none measured refuses
@@ -206,23 +229,7 @@ impl Task {
                 ),
             ));
         }
-        let stamp = self
-            .memory
-            .captures
-            .last()
-            .map(|c| c.stamp)
-            .unwrap_or_default();
-        self.out.push(
-            PERCEPTION_ROI_CLOUD,
-            to_point_cloud2(
-                &cloud,
-                Header {
-                    stamp,
-                    frame_id: BASE_LINK.to_owned(),
-                },
-            )
-            .into(),
-        );
+        self.publish_capture_cloud(&cloud);
         let n = shifts.len() as f64;
         let shift = shifts.iter().map(|s| s.0).sum::<Vector3<f64>>() / n;
         let rms = shifts.iter().map(|s| s.1).fold(0.0, f64::max);
@@ -460,23 +467,7 @@ impl Task {
                 Err(e) => reasons.push(e),
             }
         }
-        let stamp = self
-            .memory
-            .captures
-            .last()
-            .map(|c| c.stamp)
-            .unwrap_or_default();
-        self.out.push(
-            PERCEPTION_ROI_CLOUD,
-            to_point_cloud2(
-                &cloud,
-                Header {
-                    stamp,
-                    frame_id: BASE_LINK.to_owned(),
-                },
-            )
-            .into(),
-        );
+        let stamp = self.publish_capture_cloud(&cloud);
         let wanted = self.config.handle_captures.max(1);
         let max_disagreement = self.config.handle_max_disagreement_m;
         let disagreement = fits
