@@ -137,15 +137,19 @@ impl Task {
         }
     }
 
-    /// Publishes `cloud` (`base_link`) on the ROI cloud topic, stamped with the last
-    /// capture's stamp, which it returns.
-    fn publish_capture_cloud(&mut self, cloud: &[Point3<f64>]) -> msgs::builtin_interfaces::Time {
-        let stamp = self
-            .memory
+    /// The stamp of the step's last capture (the perception outputs carry it).
+    fn last_capture_stamp(&self) -> msgs::builtin_interfaces::Time {
+        self.memory
             .captures
             .last()
             .map(|c| c.stamp)
-            .unwrap_or_default();
+            .unwrap_or_default()
+    }
+
+    /// Publishes `cloud` (`base_link`) on the ROI cloud topic, stamped with the last
+    /// capture's stamp, which it returns.
+    fn publish_capture_cloud(&mut self, cloud: &[Point3<f64>]) -> msgs::builtin_interfaces::Time {
+        let stamp = self.last_capture_stamp();
         self.out.push(
             PERCEPTION_ROI_CLOUD,
             to_point_cloud2(
@@ -178,8 +182,9 @@ impl Task {
         let prior = base_from_map * self.config.site.map_from_rack;
         let model = crate::tasks::survey::rack_post_model();
         // What is published as the ROI cloud: the points around the rack's post and plate.
+        let rack_from_base = prior.inverse();
         let near_rack = |p: &Point3<f64>| {
-            let q = prior.inverse() * p;
+            let q = rack_from_base * p;
             (q.xy().coords - nalgebra::Vector2::from(model.centre_xy_m)).norm()
                 <= 2.0 * rack::SEARCH_RADIUS_M
                 && q.z >= model.plate_centre_m[2] - 0.05
@@ -306,12 +311,7 @@ impl Task {
         }
         let robot_point = self.planner().arm_base_point(lift);
         let estimate = self.wire.estimate(&prior.0, &robot_point);
-        let stamp = self
-            .memory
-            .captures
-            .last()
-            .map(|c| c.stamp)
-            .unwrap_or_default();
+        let stamp = self.last_capture_stamp();
         let cloud = self.wire.roi_cloud(stamp);
         self.out.push(PERCEPTION_ROI_CLOUD, cloud.into());
         match estimate {

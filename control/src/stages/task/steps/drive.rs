@@ -12,7 +12,7 @@ use msgs::RobotDuration;
 use msgs::frames::MAP;
 use msgs::geometry_msgs::PoseStamped;
 use msgs::topics::BASE_GOAL;
-use nalgebra::{Isometry3, Point3};
+use nalgebra::Point3;
 
 use crate::motion::collision::{
     CHASSIS_CENTRE_Z_M, CHASSIS_HALF_EXTENTS_M, Capsule, capsule_box, capsule_capsule,
@@ -146,35 +146,37 @@ fn drive_clearance(site: &SiteMap, from: &BasePose, to: &BasePose) -> (f64, Stri
     };
     let rods = site.stored_rod_capsules();
     for pose in drive_path(from, to) {
-        let map_from_base: Isometry3<f64> = pose.isometry();
-        let world = site.collision_world(&map_from_base.inverse(), None);
+        // The site (and the stored rod) in this pose's base frame, once per pose.
+        let base_from_map = pose.isometry().inverse();
+        let mut world = site.collision_world(&base_from_map, None);
+        world.capsules.extend(rods.iter().map(|(n, c)| {
+            (
+                n.clone(),
+                Capsule {
+                    a: base_from_map * c.a,
+                    b: base_from_map * c.b,
+                    radius_m: c.radius_m,
+                },
+            )
+        }));
         for p in &spheres {
             let s = Capsule {
                 a: *p,
                 b: *p,
                 radius_m: r,
             };
-            for (name, b) in world.boxes.iter().filter(|(n, _)| n != "ground") {
-                let c = capsule_box(&s, b);
+            let boxes = world
+                .boxes
+                .iter()
+                .filter(|(n, _)| n != "ground")
+                .map(|(n, b)| (n, capsule_box(&s, b)));
+            let capsules = world
+                .capsules
+                .iter()
+                .map(|(n, c)| (n, capsule_capsule(&s, c)));
+            for (name, c) in boxes.chain(capsules) {
                 if c < best.0 {
                     best = (c, name.clone(), pose);
-                }
-            }
-            let base_from_map = map_from_base.inverse();
-            let rod = rods.iter().map(|(n, c)| {
-                (
-                    n,
-                    Capsule {
-                        a: base_from_map * c.a,
-                        b: base_from_map * c.b,
-                        radius_m: c.radius_m,
-                    },
-                )
-            });
-            for (name, c) in world.capsules.iter().map(|(n, c)| (n, *c)).chain(rod) {
-                let d = capsule_capsule(&s, &c);
-                if d < best.0 {
-                    best = (d, name.clone(), pose);
                 }
             }
         }
