@@ -83,6 +83,8 @@ pub struct Condition {
     /// Depth wash-out override `(start lx, full lx, max probability)`; `None` = the wrist
     /// sensor's defaults (50 klx, 90 klx, 0.9).
     pub washout: Option<(f64, f64, f64)>,
+    /// The wrist light is on (full brightness, `sim::render::Lamp::wrist`).
+    pub wrist_light: bool,
 }
 
 /// Daylight, hour 11.
@@ -90,12 +92,14 @@ pub const DAYLIGHT: Condition = Condition {
     name: "daylight 11:00",
     hours: (11.0, 11.0),
     washout: None,
+    wrist_light: false,
 };
 /// Sunset, 18:00: ~400 lx (ARCHITECTURE.md section 6; `sim::render::light`).
 pub const DUSK_400LX: Condition = Condition {
     name: "dusk 18:00 (400 lx)",
     hours: (18.0, 18.0),
     washout: None,
+    wrist_light: false,
 };
 /// End of civil twilight: sun 6 deg below the horizon at hour
 /// `6 + 12 (1 + asin(6/62) / pi)` = 18.37, ~3 lx.
@@ -103,12 +107,21 @@ pub const DUSK_3LX: Condition = Condition {
     name: "dusk 18:22 (3 lx)",
     hours: (18.37, 18.37),
     washout: None,
+    wrist_light: false,
+};
+/// Night, 19:00 (0.4 lx), lit by the wrist light.
+pub const NIGHT_LIT: Condition = Condition {
+    name: "night 19:00, wrist light",
+    hours: (19.0, 19.0),
+    washout: None,
+    wrist_light: true,
 };
 /// Strong sun (depth wash-out), 12:00-13:00.
 pub const STRONG_SUN: Condition = Condition {
     name: "strong sun 12-13",
     hours: (12.0, 13.0),
     washout: None,
+    wrist_light: false,
 };
 /// Stress: strong sun on a sensor whose pattern washes out at half the illuminance and
 /// almost surely (20 klx -> 45 klx, up to 0.98): shows that the confidence refuses before
@@ -117,6 +130,7 @@ pub const HARSH_SUN: Condition = Condition {
     name: "harsh sun 12-13 (stress)",
     hours: (12.0, 13.0),
     washout: Some((20_000.0, 45_000.0, 0.98)),
+    wrist_light: false,
 };
 
 /// Settings of one run.
@@ -224,7 +238,8 @@ pub fn run_trial(
     let standoff = rng.uniform(STANDOFF_RANGE_M.0, STANDOFF_RANGE_M.1);
     let look = wrist_look_pose(&prior_point, &prior_direction, &robot_point, standoff)?;
     let hour = rng.uniform(condition.hours.0, condition.hours.1.max(condition.hours.0));
-    let light = LightConditions::from_hour(hour);
+    let light = LightConditions::from_hour(hour)
+        .with_lamp(condition.wrist_light.then(|| sim::render::Lamp::wrist(1.0)));
     let mut sensor = SensorParams::wrist();
     if let Some((start, full, p_max)) = condition.washout {
         sensor.depth.sun_washout_start_lux = start;
@@ -374,6 +389,7 @@ pub fn run_handle_trial(
     seed: u64,
     model: &control::perception::handle::HandleModel,
     hour: f64,
+    wrist_light: bool,
 ) -> anyhow::Result<HandleOutcome> {
     use sim::scene::grounding_rod::{HANDLE_LENGTH_M, HOOK_CENTER_IN_ROD};
     let (mut scene, layout) = SubstationBuilder::new(seed).build().context("substation")?;
@@ -395,7 +411,8 @@ pub fn run_handle_trial(
         &scene,
         &world_from_camera,
         rays_sim,
-        &LightConditions::from_hour(hour),
+        &LightConditions::from_hour(hour)
+            .with_lamp(wrist_light.then(|| sim::render::Lamp::wrist(1.0))),
         &SensorParams::wrist(),
         seed,
     );
@@ -630,7 +647,7 @@ fn main() -> anyhow::Result<()> {
         let (mut centres, mut axes, mut contrasts, mut refused) =
             (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for seed in 0..handle_scenes {
-            match run_handle_trial(&protocol, &rays_sim, seed, &model, hour)? {
+            match run_handle_trial(&protocol, &rays_sim, seed, &model, hour, false)? {
                 Ok((c, a, k)) => {
                     println!(
                         "  handle {name} seed {seed:3}: centre {:.2} mm, axis {a:.3} deg, colour {k:.1}",

@@ -192,6 +192,8 @@ fn view_draws_every_topic_of_the_log_vocabulary() {
         ("/plots/wind/truth", "Scalars:scalars"),
         ("/plots/illuminance/measured", "Scalars:scalars"),
         ("/plots/illuminance/truth", "Scalars:scalars"),
+        ("/plots/wrist_light/commanded", "Scalars:scalars"),
+        ("/plots/wrist_light/state", "Scalars:scalars"),
         ("/plots/joints_rad/arm_wrist3_joint", "Scalars:scalars"),
         ("/plots/prismatic_m/lift_joint", "Scalars:scalars"),
         ("/plots/calibration/residual_rot_deg", "Scalars:scalars"),
@@ -217,8 +219,8 @@ fn view_draws_every_topic_of_the_log_vocabulary() {
         ("/world/camera/wrist/color", "EncodedImage:blob", 1),
         ("/world/perception/roi_cloud", "Points3D:positions", 1),
         ("/plots/joints_rad/arm_shoulder_joint", "Scalars:scalars", 1),
-        // trajectory, lift, base goal, clamp, trigger, calibration command
-        ("/log/commands", "TextLog:text", 6),
+        // trajectory, lift, base goal, clamp, trigger, wrist light, calibration command
+        ("/log/commands", "TextLog:text", 7),
         ("/matches/inliers", "LineStrips2D:strips", 1),
     ] {
         assert_eq!(p.rows_of(entity, column), rows, "{entity} {column}");

@@ -10,7 +10,7 @@
 mod harness;
 
 use harness::{
-    DAYLIGHT, DUSK_3LX, DUSK_400LX, HARSH_SUN, HOOK_APPROACH_M, Protocol, STRONG_SUN,
+    DAYLIGHT, DUSK_3LX, DUSK_400LX, HARSH_SUN, HOOK_APPROACH_M, NIGHT_LIT, Protocol, STRONG_SUN,
     run_condition, summarize,
 };
 
@@ -97,7 +97,7 @@ fn at_the_end_of_twilight_the_handle_loses_its_colour_confirmation() {
     let rays = sim::render::RayTable::new(&protocol.intrinsics).expect("ray table");
     for seed in [5, 6, 8] {
         let run = |hour| {
-            harness::run_handle_trial(&protocol, &rays, seed, &HandleModel::default(), hour)
+            harness::run_handle_trial(&protocol, &rays, seed, &HandleModel::default(), hour, false)
                 .expect("simulation runs")
         };
         let (_, _, daylight_contrast) = run(11.0).expect("daylight handle accepted");
@@ -113,6 +113,36 @@ fn at_the_end_of_twilight_the_handle_loses_its_colour_confirmation() {
             ),
             "seed {seed}: {dusk:?}"
         );
+    }
+}
+
+#[test]
+fn at_night_the_wrist_light_gives_back_the_colour_confirmation() {
+    let protocol = Protocol::new(SCALE).expect("scaled wrist camera");
+    let lit = run_condition(&protocol, 0..3, &NIGHT_LIT).expect("simulation runs");
+    let s = summarize(NIGHT_LIT.name, &lit);
+    println!("{}\n{}", harness::TABLE_HEADER, harness::table_row(&s));
+    assert_eq!(s.refusals, 0, "lit refusals: {:?}", s.reasons);
+    assert!(s.median_colour_contrast > 10.0, "{s:?}");
+    for t in &lit {
+        if let Ok(e) = &t.outcome {
+            assert!(e.in_hook_window(), "seed {}: {e:?}", t.seed);
+        }
+    }
+    use control::perception::handle::HandleModel;
+    let rays = sim::render::RayTable::new(&protocol.intrinsics).expect("ray table");
+    for seed in [5, 6, 8] {
+        let run = |light| {
+            harness::run_handle_trial(&protocol, &rays, seed, &HandleModel::default(), 19.0, light)
+                .expect("simulation runs")
+        };
+        assert!(
+            run(false).is_err(),
+            "seed {seed}: the dark handle is refused"
+        );
+        let (_, _, contrast) = run(true).expect("lit handle accepted");
+        println!("seed {seed}: lit handle colour contrast {contrast:.1}");
+        assert!(contrast > 10.0, "seed {seed}: {contrast}");
     }
 }
 
@@ -140,7 +170,7 @@ fn the_handle_of_the_simulated_rod_is_found() {
     let rays = sim::render::RayTable::new(&protocol.intrinsics).expect("ray table");
     for seed in 0..3 {
         let outcome =
-            harness::run_handle_trial(&protocol, &rays, seed, &HandleModel::default(), 11.0)
+            harness::run_handle_trial(&protocol, &rays, seed, &HandleModel::default(), 11.0, false)
                 .expect("simulation runs");
         let (centre_m, axis_deg, _contrast) =
             outcome.unwrap_or_else(|e| panic!("seed {seed}: handle refused: {e}"));

@@ -282,3 +282,54 @@ fn a_dusk_refusal_replays_identically_and_a_what_if_is_labelled_open_loop() {
     );
     assert!(std::fs::metadata(&rrd).map(|m| m.len()).unwrap_or(0) > 0);
 }
+
+#[test]
+fn at_dusk_the_wrist_light_lets_the_rod_be_hung_and_the_lit_run_replays_identically() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let rec = dir.path().join("lit.mcap");
+    record("hang-dusk-lit", &rec, &["panoramic.scale=0.5"]);
+    let (ok, v) = judge(&rec);
+    assert!(ok, "{v}");
+    assert_eq!(v["outcome"], "done", "{v}");
+    assert_eq!(v["success"], true, "{v}");
+    assert_eq!(v["rod_state"], "clamped", "{v}");
+    assert_no_unsafe_command(&v);
+    // The log says why the light went on, that the panoramic camera saw nothing in the dark,
+    // and that the light went off at the end; the light's state is recorded beside its
+    // commands.
+    let rec_s = rec.to_str().expect("utf-8");
+    let log = rodlog(&["log", rec_s]);
+    let text = String::from_utf8_lossy(&log.stdout);
+    assert!(
+        text.contains("[wrist_light]: wrist light on at 100%"),
+        "{text}"
+    );
+    assert!(text.contains("[panoramic_dark]"), "{text}");
+    assert!(
+        text.contains("[wrist_light]: wrist light off: the operation ended"),
+        "{text}"
+    );
+    let info = rodlog(&["info", rec_s]);
+    let info_text = String::from_utf8_lossy(&info.stdout);
+    for topic in ["/wrist_light/command", "/wrist_light/state"] {
+        assert!(info_text.contains(topic), "{topic}: {info_text}");
+    }
+    assert_replays_identically(&rec);
+    // The same dusk without the light is refused (the hang-dusk test), and a robot without
+    // the light is never sent a command for it.
+    let dark = dir.path().join("dark.mcap");
+    record(
+        "hang-dusk-lit",
+        &dark,
+        &[
+            "panoramic.scale=0.5",
+            "camera.light=false",
+            "duration_s=120",
+        ],
+    );
+    let (_, v) = judge(&dark);
+    assert_eq!(v["outcome"], "refused", "{v}");
+    let info = rodlog(&["info", dark.to_str().expect("utf-8")]);
+    let info_text = String::from_utf8_lossy(&info.stdout);
+    assert!(!info_text.contains("/wrist_light/"), "{info_text}");
+}

@@ -41,6 +41,11 @@ pub const BASE_GOAL: &str = "/base/goal";
 pub const CLAMP_COMMAND: &str = "/clamp/command";
 /// Wrist camera capture request.
 pub const CAMERA_TRIGGER: &str = "/camera/trigger";
+/// Wrist light command: brightness 0..1 (std_msgs/Float64; 0 = off).
+pub const WRIST_LIGHT_COMMAND: &str = "/wrist_light/command";
+/// Wrist light state: the brightness it gives, 0..1 (std_msgs/Float64), from its driver; a
+/// robot without the light publishes none.
+pub const WRIST_LIGHT_STATE: &str = "/wrist_light/state";
 /// Region-of-interest point cloud (wire or handle).
 pub const PERCEPTION_ROI_CLOUD: &str = "/perception/roi_cloud";
 /// Hanging point or handle pose in `base_link`.
@@ -85,12 +90,13 @@ pub const SIM_BASE_POSE: &str = "/sim/base_pose";
 
 /// Topics that command the robot: stage outputs delivered to the world's drivers (the
 /// simulator, or the ROS 2 graph behind `--allow-motion`), ARCHITECTURE.md section 3.
-pub const COMMANDS: [&str; 5] = [
+pub const COMMANDS: [&str; 6] = [
     ARM_JOINT_TRAJECTORY,
     LIFT_COMMAND,
     BASE_GOAL,
     CLAMP_COMMAND,
     CAMERA_TRIGGER,
+    WRIST_LIGHT_COMMAND,
 ];
 
 /// Whether `topic` commands the robot ([`COMMANDS`]).
@@ -185,6 +191,8 @@ static REGISTRY: &[TopicSpec] = &[
     spec(BASE_GOAL, geometry_msgs::PoseStamped::TYPE_NAME, false),
     spec(CLAMP_COMMAND, rodlog_msgs::ClampCommand::TYPE_NAME, false),
     spec(CAMERA_TRIGGER, std_msgs::Empty::TYPE_NAME, false),
+    spec(WRIST_LIGHT_COMMAND, std_msgs::Float64::TYPE_NAME, false),
+    spec(WRIST_LIGHT_STATE, std_msgs::Float64::TYPE_NAME, false),
     spec(
         PERCEPTION_ROI_CLOUD,
         sensor_msgs::PointCloud2::TYPE_NAME,
@@ -270,7 +278,7 @@ mod tests {
                 t.type_name
             );
         }
-        assert_eq!(reg.len(), 34);
+        assert_eq!(reg.len(), 36);
     }
 
     #[test]

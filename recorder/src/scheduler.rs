@@ -41,7 +41,7 @@ pub const MAX_WORLD_STEP: RobotDuration = RobotDuration::from_millis(10);
 /// input is always later than everything already popped).
 pub const REACTION_DELAY: RobotDuration = RobotDuration::from_micros(1);
 /// Topics whose stage outputs are commands delivered to the world (ARCHITECTURE.md section 3).
-pub const COMMAND_TOPICS: [&str; 5] = msgs::topics::COMMANDS;
+pub const COMMAND_TOPICS: [&str; 6] = msgs::topics::COMMANDS;
 
 /// True for command topics.
 pub fn is_command_topic(topic: &str) -> bool {

@@ -126,6 +126,8 @@ pub struct CameraConfig {
     /// calibration's error (`crate::cameras::calibrated`); false publishes the truth.
     /// Default true.
     pub info_error: bool,
+    /// A wrist light beside the lens (`crate::wrist_light`). Default false.
+    pub light: bool,
 }
 
 /// Panoramic camera settings.
@@ -386,6 +388,11 @@ impl SimConfig {
                 "info_error",
                 true,
                 "the published camera_info carries a calibration's error (fx, fy ~0.3%, principal point ~2 px, distortion); false publishes the true intrinsics (accuracy tests of the hand-eye alone)",
+            )?,
+            light: c.bool(
+                "light",
+                false,
+                "the robot has a dimmable LED wrist light beside the lens (/wrist_light/command, /wrist_light/state)",
             )?,
         };
 

@@ -39,6 +39,7 @@ pub mod scene;
 pub mod survey;
 pub mod truth;
 pub mod world;
+pub mod wrist_light;
 
 pub use config::{SimConfig, SiteLayout};
 pub use world::SimWorld;

@@ -19,6 +19,7 @@
 //! | `/base/goal` | PoseStamped (`map`) | [`BaseSim`] |
 //! | `/clamp/command` | ClampCommand | [`ClampSim`] |
 //! | `/camera/trigger` | Empty | [`WristCamera`] |
+//! | `/wrist_light/command` | Float64 (0..1) | [`WristLightSim`] (with `camera.light`) |
 //!
 //! The world never moves by itself: only these commands move the robot.
 //!
@@ -33,6 +34,7 @@
 //! | `panoramic_driver` | `/panoramic/image_raw`, `/panoramic/camera_info` | `panoramic.period_s` (1 Hz) |
 //! | `anemometer` | `/env/wind` | 1 Hz |
 //! | `lux_meter` | `/env/illuminance` | 1 Hz |
+//! | `light_driver` | `/wrist_light/state` (with `camera.light`) | 10 Hz |
 //! | `sim` | `/sim/...` truth ([`crate::truth`]) | 1-10 Hz |
 //!
 //! For every driver message `header.stamp` = sampling/exposure time and `publish_time` =
@@ -69,6 +71,7 @@ use crate::lift::{LIFT_DRIVER, LiftSim};
 use crate::rod::{Rod, RodInputs, RodState};
 use crate::scene::{Scene, SubstationBuilder, SubstationLayout, SubstationParams};
 use crate::truth::{HANDLE_CENTER_IN_ROD_M, SIM, hanging_point, pose_stamped};
+use crate::wrist_light::{LIGHT_DRIVER, WristLightSim};
 
 /// Joint-state period (100 Hz).
 pub const JOINT_STATE_PERIOD_NS: u64 = 10_000_000;
@@ -127,6 +130,8 @@ pub struct SimWorld {
     clamp: ClampSim,
     base: BaseSim,
     wrist: WristCamera,
+    /// The wrist light, on a robot that has one (`camera.light`).
+    light: Option<WristLightSim>,
     panoramic: PanoramicCamera,
     env: EnvironmentSim,
     wind: Wind,
@@ -205,6 +210,7 @@ impl SimWorld {
             clamp: ClampSim::new(seed, r.encoder_noise),
             base: BaseSim::new(seed, start, r.odometry_drift),
             wrist: WristCamera::new(&scenario.camera, seed)?,
+            light: scenario.camera.light.then(WristLightSim::new),
             panoramic: PanoramicCamera::new(&scenario.panoramic, seed)?,
             env: EnvironmentSim::new(seed, scenario.hour),
             wind,
@@ -461,7 +467,11 @@ impl SimWorld {
         if let Some(exposure) = self.wrist.exposure_due().filter(|e| *e <= now) {
             self.sync_scene()?;
             let pose = self.true_map_from_camera();
-            let light = light_at(self.config.hour, exposure);
+            let lamp = self.light.as_mut().and_then(|l| {
+                l.advance(exposure);
+                l.lamp()
+            });
+            let light = light_at(self.config.hour, exposure).with_lamp(lamp);
             self.wrist.expose(&self.scene, &pose, &light)?;
         }
         if let Some(c) = self.wrist.poll_capture(now)? {
@@ -502,6 +512,19 @@ impl SimWorld {
             self.push(LIFT_DRIVER, topics::JOINT_STATES, l.into(), now, now);
             let c = self.clamp.joint_state(now)?;
             self.push(CLAMP_DRIVER, topics::JOINT_STATES, c.into(), now, now);
+        }
+        if ns.is_multiple_of(crate::wrist_light::STATE_PERIOD.as_nanos())
+            && let Some(l) = self.light.as_mut()
+        {
+            l.advance(now);
+            let state = l.state();
+            self.push(
+                LIGHT_DRIVER,
+                topics::WRIST_LIGHT_STATE,
+                state.into(),
+                now,
+                now,
+            );
         }
         if ns.is_multiple_of(ODOMETRY_PERIOD_NS) {
             let odom = self.base.odometry(now)?;
@@ -715,6 +738,20 @@ impl World for SimWorld {
                 msg.get::<Empty>()
                     .ok_or_else(|| Self::unroutable(topic, msg))?;
                 self.wrist.request_capture(log_time).map(|_| ())
+            }
+            topics::WRIST_LIGHT_COMMAND => {
+                let b = msg
+                    .get::<Float64>()
+                    .ok_or_else(|| Self::unroutable(topic, msg))?;
+                match self.light.as_mut() {
+                    Some(l) => l.command(log_time, b),
+                    None => Err(DriverError::Rejected {
+                        device: LIGHT_DRIVER.to_owned(),
+                        now: log_time,
+                        reason: "this robot has no wrist light (scenario camera.light = false)"
+                            .to_owned(),
+                    }),
+                }
             }
             _ => Err(Self::unroutable(topic, msg)),
         }

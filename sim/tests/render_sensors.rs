@@ -264,3 +264,94 @@ fn moving_the_wire_changes_only_what_it_covers() -> TestResult {
     assert!(((p1 - p0).norm() - 0.045).abs() < 0.01);
     Ok(())
 }
+
+/// The wrist lamp at 19:00 (0.4 lx): the calibration cabinet from 0.45 m is lit like a
+/// cloudy day, and a metal bar shows its glare.
+#[test]
+fn the_wrist_lamp_lights_the_cabinet_at_night_and_glints_on_metal() -> TestResult {
+    use sim::render::Lamp;
+    let (scene, layout) = SubstationBuilder::new(3).build()?;
+    let c = layout.calibration_target_center;
+    let n = layout.calibration_target_normal;
+    let pose = world_from_camera_looking_at(&(c + n * 0.45), &c, &Vector3::z()).ok_or("pose")?;
+    let k = wrist_camera().scaled(0.25)?;
+    let s = SensorParams::wrist();
+    let night = LightConditions::from_hour(19.0);
+    let dark = render_rgbd(&scene, &pose, &k, &night, &s, 2)?;
+    let lit = render_rgbd(
+        &scene,
+        &pose,
+        &k,
+        &night.with_lamp(Some(Lamp::wrist(1.0))),
+        &s,
+        2,
+    )?;
+    let mean_green = |f: &RgbdFrame| {
+        f.rgb.chunks(3).map(|p| f64::from(p[1])).sum::<f64>() / (f.rgb.len() / 3) as f64
+    };
+    let (md, ml) = (mean_green(&dark), mean_green(&lit));
+    let ((pm_d, ps_d), (pm_l, ps_l)) = (patch_stats(&dark), patch_stats(&lit));
+    eprintln!(
+        "19:00 mean {md:.1} -> lit {ml:.1}; patch SNR {:.1} -> {:.1}; gain {:.1} -> {:.2}, exposure {:.4} -> {:.4} s",
+        pm_d / ps_d,
+        pm_l / ps_l,
+        dark.exposure.gain,
+        lit.exposure.gain,
+        dark.exposure.exposure_s,
+        lit.exposure.exposure_s
+    );
+    if let Ok(dir) = std::env::var("RODLOG_RENDER_OUT") {
+        for (name, f) in [("dark", &dark), ("lit", &lit)] {
+            image::save_buffer(
+                format!("{dir}/lamp_cabinet_{name}.png"),
+                &f.rgb,
+                f.width,
+                f.height,
+                image::ColorType::Rgb8,
+            )?;
+        }
+    }
+    assert!(md < 20.0, "without the lamp the night image is dark: {md}");
+    assert!(ml > 60.0, "the lamp lights it: {ml}");
+    assert!(pm_l / ps_l > 3.0 * pm_d / ps_d);
+    assert!(lit.exposure.gain < dark.exposure.gain);
+
+    // A polished metal bar across the view at 0.5 m: the lamp's glare is a bright line
+    // along it (the mirror direction points back at the lens).
+    let mut b = SceneBuilder::new();
+    let metal = b.material(Material {
+        shading: sim::scene::Shading::Metal {
+            specular: 0.6,
+            exponent: 200.0,
+        },
+        ..Material::matte([0.8, 0.8, 0.8], Texture::Uniform, 0)
+    });
+    b.add(
+        Shape::Cylinder {
+            base: Point3::new(-0.5, 0.0, 0.5),
+            axis: Vector3::x(),
+            length_m: 1.0,
+            radius_m: 0.0134,
+        },
+        metal,
+    );
+    let bar = b.build()?;
+    let f = render_rgbd(
+        &bar,
+        &Isometry3::identity(),
+        &k,
+        &night.with_lamp(Some(Lamp::wrist(1.0))),
+        &s,
+        2,
+    )?;
+    let row = |v: u32| {
+        (0..f.width)
+            .filter_map(|u| f.rgb_at(u, v))
+            .map(|p| p[1])
+            .max()
+            .unwrap_or(0)
+    };
+    let brightest = (0..f.height).map(row).max().unwrap_or(0);
+    assert!(brightest >= 250, "glare on the bar: {brightest}");
+    Ok(())
+}

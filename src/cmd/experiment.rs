@@ -94,6 +94,21 @@ pub struct ExperimentOptions {
     #[arg(long, value_enum, default_value_t = Sites::Fixed)]
     #[serde(default)]
     pub sites: Sites,
+    /// `light` only: `on` gives the robot a wrist light, which its task switches on when the
+    /// lux meter reads low; `off` (default) is the robot without one.
+    #[arg(long, value_enum, default_value_t = OnOff::Off)]
+    #[serde(default)]
+    pub wrist_light: OnOff,
+}
+
+/// `--wrist-light`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, Serialize, Deserialize)]
+pub enum OnOff {
+    /// Without.
+    #[default]
+    Off,
+    /// With.
+    On,
 }
 
 /// `--sites` of the task experiments.
@@ -216,6 +231,9 @@ fn run_named(
         (_, Some(hours)) => check_list("--hours", hours, 0.0..=24.0)?,
         (None, None) => {}
     }
+    if options.wrist_light == OnOff::On && name != ExperimentName::Light {
+        bail!("--wrist-light is an option of `rodlog experiment light` only");
+    }
     if options.sites == Sites::Seeded
         && !matches!(
             name,
@@ -238,6 +256,7 @@ fn run_named(
             speeds_mps: options.speeds.clone(),
             hours: options.hours.clone(),
             seeded_sites: options.sites == Sites::Seeded,
+            wrist_light: options.wrist_light == OnOff::On,
             out: OutputDir::create(out)?,
             mode: mode.clone(),
             arguments: serde_json::to_string(options)?,

@@ -49,6 +49,7 @@ pub fn run(settings: &Settings) -> Result<()> {
                 camera_scale,
                 duration_s: 320.0,
                 seeded_site: settings.seeded_sites,
+                wrist_light: settings.wrist_light,
             });
         }
     }
@@ -59,9 +60,17 @@ pub fn run(settings: &Settings) -> Result<()> {
     report.paragraph(settings.sites_sentence());
     report.paragraph(&format!(
         "{trials} seeded hangs per hour, self-maintenance on, no bump, mean wind 0-1.5 m/s, wrist \
-         camera {}x{}. Judged with the simulator's truth.",
+         camera {}x{}, {}. Judged with the simulator's truth.",
         (1280.0 * camera_scale).round(),
-        (1024.0 * camera_scale).round()
+        (1024.0 * camera_scale).round(),
+        if settings.wrist_light {
+            format!(
+                "with the wrist light (lit by the task while the lux meter reads below {} lx)",
+                control::tasks::lighting::LightingParams::default().on_below_lux
+            )
+        } else {
+            "without a wrist light".to_owned()
+        }
     ));
     report.table(&outcome_table("hour", &groups));
     let lines = vec![
@@ -118,6 +127,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     json.parameter("hours", hours.iter().map(|(h, _)| *h).collect::<Vec<f64>>())?;
     json.parameter("camera_scale", camera_scale)?;
     json.parameter("sites", settings.sites_label())?;
+    json.parameter("wrist_light", settings.wrist_light)?;
     json.section("groups", &groups)?;
     settings.write_results(&json)?;
     let path = report.write(settings.out.root())?;

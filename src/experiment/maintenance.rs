@@ -7,7 +7,8 @@
 //! bump at 0.5 s of a set size, direction drawn from the seed: rotation-only bins, translation
 //! -only bins and combined bins spanning 0.25-3 deg and 1-10 mm, and unbumped runs for the
 //! false alarms. Detected = the verdict `drifted`; "cannot tell" is counted on its own (a
-//! refusal to judge, not a detection). Goal: >= 95 % detected in every bin at
+//! refusal to judge, not a detection). A check whose four views are `unresolved` takes four
+//! more; the table gives the verdict of the four beside the final one. Goal: >= 95 % detected in every bin at
 //! >= 0.5 deg or >= 3 mm, <= 5 % false alarms, >= 50 runs each.
 
 use anyhow::Result;
@@ -51,8 +52,14 @@ pub struct BinResult {
     pub drifted: usize,
     /// Verdict `consistent`.
     pub consistent: usize,
-    /// Verdict `cannot_tell` (or no answer).
+    /// Verdict `cannot_tell` or `unresolved` (or no answer), after the extra views when the
+    /// first four were unresolved.
     pub cannot_tell: usize,
+    /// The first four views' verdict was not `drifted` or `consistent` (what the check would
+    /// say without its four extra views).
+    pub first_cannot_tell: usize,
+    /// The first four views were `unresolved`, and the check took four more.
+    pub extended: usize,
     /// `drifted / runs` (the detection rate; for the unbumped bin, the false-alarm rate).
     pub rate: f64,
     /// Wilson 95% interval of `rate` ([`super::stats::wilson_95`]).
@@ -85,6 +92,7 @@ pub fn run(settings: &Settings) -> Result<()> {
                 camera_scale,
                 duration_s: 60.0,
                 seeded_site: settings.seeded_sites,
+                wrist_light: false,
             });
         }
     }
@@ -103,17 +111,23 @@ pub fn run(settings: &Settings) -> Result<()> {
             };
             for run in results.iter().filter(|x| x.spec.condition == *label) {
                 r.runs += 1;
-                match run
+                let checks: Vec<&str> = run
                     .verdict
                     .calibration
                     .iter()
-                    .rev()
-                    .find(|a| a.state == "check")
+                    .filter(|a| a.state == "check")
                     .map(|a| a.reason_code.as_str())
-                {
-                    Some("drifted") => r.drifted += 1,
-                    Some("consistent") => r.consistent += 1,
+                    .collect();
+                match checks.last() {
+                    Some(&"drifted") => r.drifted += 1,
+                    Some(&"consistent") => r.consistent += 1,
                     _ => r.cannot_tell += 1,
+                }
+                if !matches!(checks.first(), Some(&("drifted" | "consistent"))) {
+                    r.first_cannot_tell += 1;
+                }
+                if checks.first() == Some(&"unresolved") && checks.len() > 1 {
+                    r.extended += 1;
                 }
             }
             r.rate = if r.runs == 0 {
@@ -129,9 +143,9 @@ pub fn run(settings: &Settings) -> Result<()> {
     report.paragraph(settings.sites_sentence());
     report.paragraph(&format!(
         "{trials} runs per bin of the `check` task (4 drift check views of the calibration \
-         cabinet, wrist camera {}x{}, 9:00-15:00, mean wind 0-1 m/s); bump at 0.5 s in a \
-         direction drawn from the seed. Goal: >= 95 % detected at >= 0.5 deg or >= 3 mm, <= 5 % \
-         false alarms on unbumped runs.",
+         cabinet, 4 more when those are unresolved, wrist camera {}x{}, 9:00-15:00, mean wind \
+         0-1 m/s); bump at 0.5 s in a direction drawn from the seed. Goal: >= 95 % detected at \
+         >= 0.5 deg or >= 3 mm; on unbumped runs <= 5 % false alarms and <= 5 % cannot tell.",
         (1280.0 * camera_scale).round(),
         (1024.0 * camera_scale).round()
     ));
@@ -141,16 +155,19 @@ pub fn run(settings: &Settings) -> Result<()> {
         "drifted",
         "consistent",
         "cannot tell",
+        "4 views: cannot tell",
+        "looked again",
         "rate",
         "95% interval (Wilson)",
         "goal",
     ]);
     for b in &bins {
         let goal = if b.bin == "none" {
-            if b.rate <= 0.05 {
-                "<= 5 %: met"
-            } else {
-                "<= 5 %: NOT met"
+            let cannot = b.cannot_tell as f64 / b.runs.max(1) as f64;
+            match (b.rate <= 0.05, cannot <= 0.05) {
+                (true, true) => "<= 5 % false alarms, <= 5 % cannot tell: met",
+                (false, _) => "<= 5 % false alarms: NOT met",
+                (true, false) => "<= 5 % cannot tell: NOT met",
             }
         } else if b.goal_applies {
             if b.rate >= 0.95 {
@@ -167,6 +184,8 @@ pub fn run(settings: &Settings) -> Result<()> {
             b.drifted.to_string(),
             b.consistent.to_string(),
             b.cannot_tell.to_string(),
+            b.first_cannot_tell.to_string(),
+            b.extended.to_string(),
             fmt_pct(b.rate, 0),
             format!("{} - {}", fmt_pct(b.rate_95.0, 0), fmt_pct(b.rate_95.1, 0)),
             goal.to_owned(),

@@ -75,6 +75,8 @@ pub struct Settings {
     pub hours: Option<Vec<f64>>,
     /// `--sites seeded`: the task experiments run on seeded bays with a survey each.
     pub seeded_sites: bool,
+    /// `--wrist-light on`: the light experiment's robot has a wrist light.
+    pub wrist_light: bool,
     /// The output folder (created).
     pub out: OutputDir,
     /// All items, one shard of them, or the records of merged shards ([`shard`]).

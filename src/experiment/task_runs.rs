@@ -39,6 +39,9 @@ pub struct RunSpec {
     /// robot has built in.
     #[serde(default)]
     pub seeded_site: bool,
+    /// The robot has a wrist light (`camera.light`), which its task lights at dusk.
+    #[serde(default)]
+    pub wrist_light: bool,
 }
 
 impl RunSpec {
@@ -69,8 +72,10 @@ impl RunSpec {
             t.push_str("\n[site]\nlayout = \"seeded\"\n");
         }
         t.push_str(&format!(
-            "\n[camera]\nscale = {:?}\n\n[panoramic]\nperiod_s = 1.0\n\n[parameters]\ntask.self_maintenance = {}\n",
-            self.camera_scale, self.self_maintenance
+            "\n[camera]\nscale = {:?}\n{}\n[panoramic]\nperiod_s = 1.0\n\n[parameters]\ntask.self_maintenance = {}\n",
+            self.camera_scale,
+            if self.wrist_light { "light = true\n" } else { "" },
+            self.self_maintenance
         ));
         t
     }

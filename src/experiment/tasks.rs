@@ -71,6 +71,7 @@ pub fn trial_specs(seed: u64, camera_scale: f64, seeded_site: bool) -> Vec<RunSp
                 camera_scale,
                 duration_s: 320.0,
                 seeded_site,
+                wrist_light: false,
             });
         }
     }

@@ -43,6 +43,7 @@ pub fn run(settings: &Settings) -> Result<()> {
                 camera_scale,
                 duration_s: 320.0,
                 seeded_site: settings.seeded_sites,
+                wrist_light: false,
             });
         }
     }

@@ -247,6 +247,7 @@ fn layout(framing: Option<&Framing>) -> Node {
             ),
             series("wind (m/s)", "plots/wind"),
             series("illuminance (lx)", "plots/illuminance"),
+            series("wrist light (0..1)", "plots/wrist_light"),
             series("calibration", "plots/calibration"),
             Node::View(View::new("task states", "StateTimeline", sink::STATES)),
             Node::View(View::new("metadata", "TextDocument", sink::METADATA)),

@@ -18,7 +18,7 @@
 //! | `world/sim/...` | `/sim/wire_pose`, `/sim/handle_pose`, `/sim/base_pose`, `/sim/camera_mount` | the simulator's truth: the true wire, rod and camera frustum (hidden by default) |
 //! | `world/trajectories/planned`, `.../executed` | `/arm/planned_path`; `base_link`..`tool0` composed from `/tf` | `LineStrips3D` in `base_link` |
 //! | `matches/image`, `matches/inliers`, `matches/rejected` | `/calibration/matches` + the wrist images at `stamp_a`, `stamp_b` | `EncodedImage` (side by side), `LineStrips2D` (green / red) |
-//! | `plots/...` | wind, illuminance (measured and truth), joint positions, calibration residuals and sigmas, lift command | `Scalars` (+ `SeriesLines` names) |
+//! | `plots/...` | wind, illuminance (measured and truth), wrist light (commanded and state), joint positions, calibration residuals and sigmas, lift command | `Scalars` (+ `SeriesLines` names) |
 //! | `events/task` | `/task/event` | `StateChange` (`task/state`): lanes in the state timeline |
 //! | `log/{rosout,task,calibration,commands,sim}` | `/rosout`, `/task/event`, `/calibration/hand_eye`, command topics, `/sim/rod_state`, `/sim/camera_info`, `/sim/panoramic/camera_info` (the true intrinsics, on change) | `TextLog` |
 //! | `recording/metadata` | MCAP metadata records | `TextDocument` (markdown) |
@@ -951,6 +951,13 @@ impl Viz {
                 self.scalar("plots/commands/lift_m", v.data)?;
                 self.command_line(topic, format!("lift to {:.3} m", v.data))?;
             }
+            (t::WRIST_LIGHT_COMMAND, Msg::Float64(v)) => {
+                self.scalar("plots/wrist_light/commanded", v.data)?;
+                self.command_line(topic, format!("wrist light at {:.0}%", 100.0 * v.data))?;
+            }
+            (t::WRIST_LIGHT_STATE, Msg::Float64(v)) => {
+                self.scalar("plots/wrist_light/state", v.data)?;
+            }
             (t::ROSOUT, Msg::Log(l)) => {
                 let text = format!("[{}] {}", l.name, l.msg);
                 self.rec.log(
@@ -1554,7 +1561,7 @@ impl Viz {
 
     /// Logs the static names and colours of the fixed series.
     fn log_series_styles(&mut self) -> Result<(), VizError> {
-        let styles: [(&str, &str, [u8; 3]); 8] = [
+        let styles: [(&str, &str, [u8; 3]); 10] = [
             (
                 "plots/wind/measured",
                 "wind (anemometer, 3-s mean) m/s",
@@ -1573,6 +1580,16 @@ impl Viz {
             (
                 "plots/illuminance/truth",
                 "illuminance (truth) lx",
+                [120, 120, 120],
+            ),
+            (
+                "plots/wrist_light/commanded",
+                "wrist light commanded (0..1)",
+                ORANGE,
+            ),
+            (
+                "plots/wrist_light/state",
+                "wrist light state (0..1)",
                 [120, 120, 120],
             ),
             (

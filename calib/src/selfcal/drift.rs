@@ -196,6 +196,41 @@ pub const CHECK_MOTION: [CheckPose; 4] = [
     },
 ];
 
+/// Four more poses for a check that could not resolve a bump of the target size
+/// ([`CannotTell::Unobservable`]): frontal without roll and tilted 30 deg at the azimuths
+/// halfway between [`CHECK_MOTION`]'s, same point, same distance. Joined to the first four
+/// (the calibration stage's `extend`), the check has 8 views and 28 pairs carrying `M = 7`
+/// independent motions instead of 3 (module docs: `Sigma_d = H^-1 (P / M)`, `H` growing with
+/// `P`), so the estimate's 1-sigma shrinks by about `sqrt(3 / 7) = 0.65`. Every new pose is
+/// 29-60 deg from each other pose (a unit test checks 20-60 deg): each pairs with all of
+/// them.
+pub const CHECK_MOTION_MORE: [CheckPose; 4] = [
+    CheckPose {
+        tilt_deg: 0.0,
+        azimuth_deg: 0.0,
+        roll_deg: 0.0,
+        distance_m: 0.45,
+    },
+    CheckPose {
+        tilt_deg: 30.0,
+        azimuth_deg: 60.0,
+        roll_deg: 0.0,
+        distance_m: 0.45,
+    },
+    CheckPose {
+        tilt_deg: 30.0,
+        azimuth_deg: 180.0,
+        roll_deg: 0.0,
+        distance_m: 0.45,
+    },
+    CheckPose {
+        tilt_deg: 30.0,
+        azimuth_deg: 300.0,
+        roll_deg: 0.0,
+        distance_m: 0.45,
+    },
+];
+
 /// `world_from_camera` of each check pose. `world_from_target`: the looked-at point at its
 /// origin, its z axis the surface normal pointing towards the camera side. Camera axes are
 /// OpenCV's (z forward): the camera sits at `d * (sin tilt cos az, sin tilt sin az, cos tilt)`
@@ -879,5 +914,28 @@ mod tests {
             assert!(origin_in_cam.x.abs() < 1e-9 && origin_in_cam.y.abs() < 1e-9);
             assert!((origin_in_cam.z - p.distance_m).abs() < 1e-9);
         }
+    }
+
+    #[test]
+    fn the_extra_poses_pair_with_every_first_pose() {
+        let first = check_camera_poses(&Isometry3::identity(), &CHECK_MOTION);
+        let more = check_camera_poses(&Isometry3::identity(), &CHECK_MOTION_MORE);
+        let mut angles = Vec::new();
+        for (i, a) in more.iter().enumerate() {
+            for (j, b) in first.iter().chain(&more[..i]).enumerate() {
+                let deg = (a.inverse() * b).rotation.angle().to_degrees();
+                assert!(
+                    (20.0..=60.0).contains(&deg),
+                    "new {i}, old {j}: {deg:.1} deg"
+                );
+                angles.push(deg);
+            }
+        }
+        angles.sort_by(f64::total_cmp);
+        eprintln!(
+            "extra pose pairs: {:.1}-{:.1} deg",
+            angles[0],
+            angles[angles.len() - 1]
+        );
     }
 }

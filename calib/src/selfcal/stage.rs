@@ -28,10 +28,13 @@
 //!
 //! | batch | state | reason_code (kind) |
 //! |---|---|---|
-//! | check | `check` | `consistent` (INFO), `drifted` (INFO: recalibrate), `cannot_tell` (REFUSED, e.g. too dark) from [`check_drift`] against the camera edge in use |
+//! | check | `check` | `consistent` (INFO), `drifted` (INFO: recalibrate), `unresolved` (REFUSED: no drift seen, but the views could miss one of the target size; more views help), `cannot_tell` (REFUSED, e.g. too dark) from [`check_drift`] against the camera edge in use |
 //! | collect | `calibrate` | `accepted` (DONE: now the camera edge), `rejected` (FAILED: residuals above the limits), `refused` (REFUSED) |
 //!
-//! `cancel` drops the batch. Without a batch, captures are only calibrated when
+//! `extend` starts a batch of drift check views that joins the last check's views (after an
+//! `unresolved`: the task adds [`super::drift::CHECK_MOTION_MORE`], and the check of all of
+//! them has `n - 1` independent motions instead of three). `cancel` drops the batch.
+//! Without a batch, captures are only calibrated when
 //! [`CalibrationStageConfig::captures_to_solve`] is non-zero (scripted motions such as
 //! `calib-18`).
 //!
@@ -82,7 +85,7 @@ use robot::conversions::{transform_msg, transform_stamped};
 use robot::names::{BASE_LINK, TOOL0};
 use robot::tf_buffer::{TfBuffer, TfError};
 
-use super::drift::{DriftParams, DriftVerdict, check_drift};
+use super::drift::{CannotTell, DriftParams, DriftVerdict, check_drift};
 use super::messages::{
     DEPTH_STAMP_TOLERANCE_NS, camera_from_info, depth_from_image, gray_from_image,
 };
@@ -260,6 +263,8 @@ pub struct CalibrationStage {
     last_edge_stamp: Option<u64>,
     accepted: usize,
     batch: Option<Batch>,
+    /// The views of the last drift check, for an `extend`.
+    last_check: Vec<CalibView>,
 }
 
 /// A batch of captures requested on `/calibration/command`.
@@ -297,6 +302,7 @@ impl CalibrationStage {
             views: Vec::new(),
             captures: 0,
             last_edge_stamp: None,
+            last_check: Vec::new(),
             accepted: 0,
             batch: None,
         }
@@ -729,28 +735,28 @@ impl CalibrationStage {
     /// A `/calibration/command` (module docs, "Commands").
     fn on_command(&mut self, log_time: RobotTime, command: &str, out: &mut Vec<(String, Msg)>) {
         match command.trim() {
-            c @ ("check" | "collect") => {
-                self.batch = Some(if c == "check" {
-                    Batch::Check
-                } else {
+            c @ ("check" | "collect" | "extend") => {
+                self.batch = Some(if c == "collect" {
                     Batch::Calibrate
+                } else {
+                    Batch::Check
                 });
                 self.views.clear();
+                if c == "extend" {
+                    self.views = std::mem::take(&mut self.last_check);
+                }
                 self.pending.clear();
                 self.depth.clear();
-                self.captures = 0;
-                out.push(Self::log(
-                    Log::INFO,
-                    log_time,
-                    format!(
-                        "{c}: the next captures are {} views",
-                        if c == "check" {
-                            "drift check"
-                        } else {
-                            "calibration"
-                        }
+                self.captures = self.views.len();
+                let text = match c {
+                    "check" => "check: the next captures are drift check views".to_owned(),
+                    "collect" => "collect: the next captures are calibration views".to_owned(),
+                    _ => format!(
+                        "extend: the next captures join the last drift check's {} views",
+                        self.views.len()
                     ),
-                ));
+                };
+                out.push(Self::log(Log::INFO, log_time, text));
             }
             "solve" => {
                 // Everything captured so far is in (colour and depth arrive together).
@@ -776,6 +782,11 @@ impl CalibrationStage {
                         "solve without check or collect: nothing to solve".to_owned(),
                     ),
                 };
+                if batch == Some(Batch::Check) {
+                    self.last_check = std::mem::take(&mut self.views);
+                } else {
+                    self.last_check.clear();
+                }
                 self.views.clear();
                 self.captures = 0;
                 out.push(self.answer(log_time, state, kind, reason, text));
@@ -851,6 +862,12 @@ impl CalibrationStage {
                 format!(
                     "drift check: the camera mount has moved by about {rotation_deg:.2} deg / {translation_mm:.1} mm ({views} views){numbers}: recalibrate"
                 ),
+            ),
+            DriftVerdict::CannotTell(why @ CannotTell::Unobservable { .. }) => (
+                Log::WARN,
+                TaskEvent::REFUSED,
+                "unresolved",
+                format!("drift check cannot tell ({views} views): {why}{numbers}"),
             ),
             DriftVerdict::CannotTell(why) => (
                 Log::WARN,

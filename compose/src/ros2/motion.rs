@@ -13,7 +13,7 @@
 //! | command | sent as |
 //! |---|---|
 //! | `/arm/joint_trajectory` | a `JointTrajectory` on its topic, or a FollowJointTrajectory goal (`ros2::FollowJointTrajectoryClient`): goal acceptance and result recorded on [`ARM_ACTION`] |
-//! | `/lift/command`, `/base/goal`, `/clamp/command` | the message, on its (remapped) topic |
+//! | `/lift/command`, `/base/goal`, `/clamp/command`, `/wrist_light/command` | the message, on its (remapped) topic |
 //! | `/camera/trigger` | an `Empty` on its topic, or the capture service calls the remap lists |
 //!
 //! Trajectories go out in the driver's joint names and units (the remap's `[joints]`,
@@ -231,6 +231,7 @@ struct Commands {
     lift: Option<Publisher>,
     base: Option<Publisher>,
     clamp: Option<Publisher>,
+    light: Option<Publisher>,
     trigger_topic: Option<Publisher>,
     trigger_services: Vec<ServiceClient>,
 }
@@ -363,6 +364,10 @@ pub fn command_path(
             route(c.clamp.as_ref(), topics::CLAMP_COMMAND),
             topics::CLAMP_COMMAND,
         )?);
+        let light = Some(publisher(
+            route(c.light.as_ref(), topics::WRIST_LIGHT_COMMAND),
+            topics::WRIST_LIGHT_COMMAND,
+        )?);
         let (trigger_topic, trigger_services) = match &c.camera_trigger {
             Some(TriggerCommand::Services { calls, mapping }) => {
                 let mut clients = Vec::new();
@@ -389,6 +394,7 @@ pub fn command_path(
             lift,
             base,
             clamp,
+            light,
             trigger_topic,
             trigger_services,
         })
@@ -545,10 +551,14 @@ impl CommandThread {
                     sent = publish(p, &cdr, &counts, feed);
                 }
             }
-            topics::LIFT_COMMAND | topics::BASE_GOAL | topics::CLAMP_COMMAND => {
+            topics::LIFT_COMMAND
+            | topics::BASE_GOAL
+            | topics::CLAMP_COMMAND
+            | topics::WRIST_LIGHT_COMMAND => {
                 let p = match env.topic() {
                     topics::LIFT_COMMAND => &c.lift,
                     topics::BASE_GOAL => &c.base,
+                    topics::WRIST_LIGHT_COMMAND => &c.light,
                     _ => &c.clamp,
                 };
                 if let Some(p) = p {

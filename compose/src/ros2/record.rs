@@ -38,7 +38,7 @@ use crate::world::World;
 
 /// The rodlog topics `record --ros2` subscribes to (under their vendor names where a remap
 /// routes them): what drivers publish, and the simulator's truth.
-pub const GRAPH_INPUTS: [&str; 19] = [
+pub const GRAPH_INPUTS: [&str; 20] = [
     topics::JOINT_STATES,
     topics::TF,
     topics::TF_STATIC,
@@ -49,6 +49,7 @@ pub const GRAPH_INPUTS: [&str; 19] = [
     topics::PANORAMIC_INFO,
     topics::ENV_WIND,
     topics::ENV_ILLUMINANCE,
+    topics::WRIST_LIGHT_STATE,
     topics::SIM_CAMERA_MOUNT,
     topics::SIM_CAMERA_INFO,
     topics::SIM_PANORAMIC_INFO,

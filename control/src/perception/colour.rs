@@ -26,6 +26,17 @@
 //! brightness); the measure is the median over the stations that have enough samples.
 //! In daylight the step stands tens of spreads above the sky; at the end of civil twilight
 //! (~3 lx) the gain's noise brings it down to about one.
+//!
+//! # Under the wrist light
+//! The lamp beside the lens (`crate::tasks::lighting`) changes what the measure sees, not the
+//! measure: it is taken in the image, so the light enters through the image itself. Its
+//! inverse-square falloff makes the wire at 0.45 m brighter than whatever lies behind it,
+//! and the gain drops back to daylight values, so the step rises above the spread again
+//! (`tests/perception_sim.rs`: at 19:00, 0.4 lx, the wire's and the handle's confirmation
+//! come back with the lamp). Its glare on the metal does not reach the bands: a lamp at the
+//! lens mirrors off where the normal faces the camera, the cylinder's centre line, while
+//! the inside band starts at `|k| = 0.55`, where the normal is 33 deg off the line of sight
+//! and a specular lobe of exponent 200 has fallen to 1e-15 of its peak.
 
 use super::PerceptionError;
 use super::cylinder::Cylinder;

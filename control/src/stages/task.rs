@@ -48,9 +48,16 @@
 //! check that cannot tell followed by a recalibration that is not accepted refuses
 //! (`calibration_unverifiable`).
 //!
+//! # The wrist light
+//! On a robot with a wrist light (its driver publishes `/wrist_light/state`), the stage lights
+//! the scene while an operation runs and the lux meter reads low
+//! ([`crate::tasks::lighting`]), announces it on `/task/event` (reason `wrist_light`), and
+//! switches it off at the end. The light is not motion: it is commanded whatever the wind.
+//!
 //! # Outputs
 //! Commands (`/arm/joint_trajectory` with `/arm/planned_path`, `/lift/command`,
-//! `/base/goal`, `/clamp/command`, `/camera/trigger`), `/calibration/command`,
+//! `/base/goal`, `/clamp/command`, `/camera/trigger`, `/wrist_light/command`),
+//! `/calibration/command`,
 //! `/perception/roi_cloud` and `/perception/target_pose`, and every step change on
 //! `/task/event` (task `hang` or `remove`) and `/rosout`. Outputs are stamped
 //! `trigger log_time + latency`; timeouts come from `/clock`. No clock, no randomness but the
@@ -101,9 +108,10 @@ use msgs::sensor_msgs::{Image, PointCloud2};
 use msgs::std_msgs::{Empty, Float64, String as StringMsg};
 use msgs::topics::{
     ARM_JOINT_TRAJECTORY, ARM_PLANNED_PATH, BASE_GOAL, CALIBRATION_COMMAND, CAMERA_COLOR_IMAGE,
-    CAMERA_COLOR_INFO, CAMERA_DEPTH_IMAGE, CAMERA_TRIGGER, CLAMP_COMMAND, CLOCK, ENV_WIND,
-    JOINT_STATES, LIFT_COMMAND, PANORAMIC_IMAGE, PANORAMIC_INFO, PERCEPTION_ROI_CLOUD,
-    PERCEPTION_TARGET_POSE, ROSOUT, TASK_EVENT, TF, TF_STATIC,
+    CAMERA_COLOR_INFO, CAMERA_DEPTH_IMAGE, CAMERA_TRIGGER, CLAMP_COMMAND, CLOCK, ENV_ILLUMINANCE,
+    ENV_WIND, JOINT_STATES, LIFT_COMMAND, PANORAMIC_IMAGE, PANORAMIC_INFO, PERCEPTION_ROI_CLOUD,
+    PERCEPTION_TARGET_POSE, ROSOUT, TASK_EVENT, TF, TF_STATIC, WRIST_LIGHT_COMMAND,
+    WRIST_LIGHT_STATE,
 };
 use msgs::trajectory_msgs::JointTrajectory;
 use msgs::{Msg, RobotDuration, RobotTime, RosMessage, Stage, StageError};
@@ -118,6 +126,7 @@ use self::planning::Arm;
 use crate::motion::collision::ArmCollisionModel;
 use crate::perception::point_cloud::DepthImage;
 use crate::stages::wire_flow::{WireFlow, WristCapture, time_ns};
+use crate::tasks::lighting;
 
 pub use self::action::{
     ARRIVED_RAD, AT_REST_RAD_S, BASE_ARRIVED_M, BASE_ARRIVED_RAD, BASE_STILL_FOR, BASE_STILL_M,
@@ -468,7 +477,44 @@ impl TaskStage {
                 Err(stop) => self.end(&stop),
             }
         }
+        if self.at == At::Finished && self.task.robot.lighting.commanded.is_some_and(|b| b > 0.0) {
+            self.light();
+        }
         self.task.out.take()
+    }
+
+    /// Commands the wrist light when [`crate::tasks::lighting::decide`] says so, with an
+    /// event that says why.
+    fn light(&mut self) {
+        let operating = matches!(self.at, At::Step(_) | At::Recover(_));
+        let lighting = self.task.robot.lighting;
+        let Some(b) = lighting::decide(&lighting, &self.task.config.lighting, operating) else {
+            return;
+        };
+        self.task.robot.lighting.commanded = Some(b);
+        self.task
+            .out
+            .push(WRIST_LIGHT_COMMAND, Msg::Float64(Float64 { data: b }));
+        let lux = lighting.lux.map_or("no reading".to_owned(), |l| {
+            if l < 10.0 {
+                format!("{l:.2} lx")
+            } else {
+                format!("{l:.0} lx")
+            }
+        });
+        let text = if b > 0.0 {
+            format!(
+                "wrist light on at {:.0}%: the lux meter reads {lux} (< {:.0} lx)",
+                100.0 * b,
+                self.task.config.lighting.on_below_lux
+            )
+        } else if operating {
+            format!("wrist light off: the lux meter reads {lux}")
+        } else {
+            "wrist light off: the operation ended".to_owned()
+        };
+        let state = self.step();
+        self.task.event(TaskEvent::INFO, state, "wrist_light", text);
     }
 
     /// The wind gate before a command: open, or hold (announced once per hold) and refuse
@@ -587,6 +633,8 @@ impl Stage for TaskStage {
             CAMERA_COLOR_IMAGE,
             CAMERA_DEPTH_IMAGE,
             TASK_EVENT,
+            ENV_ILLUMINANCE,
+            WRIST_LIGHT_STATE,
         ]
         .iter()
         .map(|s| (*s).to_owned())
@@ -601,6 +649,7 @@ impl Stage for TaskStage {
             (BASE_GOAL.to_owned(), PoseStamped::TYPE_NAME),
             (CLAMP_COMMAND.to_owned(), ClampCommand::TYPE_NAME),
             (CAMERA_TRIGGER.to_owned(), Empty::TYPE_NAME),
+            (WRIST_LIGHT_COMMAND.to_owned(), Float64::TYPE_NAME),
             (CALIBRATION_COMMAND.to_owned(), StringMsg::TYPE_NAME),
             (PERCEPTION_ROI_CLOUD.to_owned(), PointCloud2::TYPE_NAME),
             (PERCEPTION_TARGET_POSE.to_owned(), PoseStamped::TYPE_NAME),
@@ -625,6 +674,17 @@ impl Stage for TaskStage {
             (TF_STATIC, Msg::TfMessage(m)) => self.task.robot.on_tf_static(m),
             (JOINT_STATES, Msg::JointState(js)) => self.task.robot.on_joint_state(js),
             (ENV_WIND, Msg::Float64(w)) => self.task.robot.gate.on_reading(log_time, w.data),
+            // The light's inputs change nothing but the light.
+            (ENV_ILLUMINANCE, Msg::Illuminance(lx)) => {
+                self.task.robot.lighting.lux = Some(lx.illuminance);
+                self.light();
+                return Ok(self.task.out.take());
+            }
+            (WRIST_LIGHT_STATE, Msg::Float64(b)) => {
+                self.task.robot.lighting.state = Some(b.data);
+                self.light();
+                return Ok(self.task.out.take());
+            }
             (PANORAMIC_INFO, Msg::CameraInfo(info)) => self.task.robot.on_panoramic_info(info),
             (CAMERA_COLOR_INFO, Msg::CameraInfo(info)) => self.task.robot.on_wrist_info(info),
             (PANORAMIC_IMAGE, Msg::Image(image))

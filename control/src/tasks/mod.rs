@@ -9,8 +9,10 @@
 //! | [`poses`] | the flows' poses: hook goal, level look, grasp, hung rod from its handle |
 //! | [`calibration_views`] | wrist views of the calibration target (drift check, recalibration) |
 //! | [`safety`] | the wind gate (anemometer with its documented error) |
+//! | [`lighting`] | when to light the scene with the wrist light (lux meter, hysteresis) |
 
 pub mod calibration_views;
+pub mod lighting;
 pub mod poses;
 pub mod safety;
 pub mod site;

@@ -27,6 +27,9 @@ pub const SUNSET_LUX: f64 = 400.0;
 pub const CIVIL_TWILIGHT_END_LUX: f64 = 3.0;
 /// Floor (moonless night, lx).
 pub const NIGHT_LUX: f64 = 0.001;
+/// Distance at which the white balance weighs a lamp's light against daylight (m): the
+/// wrist camera's working distance.
+pub const LAMP_WHITE_BALANCE_DISTANCE_M: f64 = 0.45;
 
 /// Light of one moment.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -43,6 +46,79 @@ pub struct LightConditions {
     pub sky_zenith_rgb: [f64; 3],
     /// Sky colour at the horizon (linear RGB, luminance 1).
     pub sky_horizon_rgb: [f64; 3],
+    /// The lamp beside the camera's lens, when it is lit.
+    pub lamp: Option<Lamp>,
+}
+
+/// A lamp beside the camera's lens (the wrist light): a point source whose beam follows the
+/// optical axis.
+///
+/// Intensity at angle `theta` off the axis: `I(theta) = I_0 b cos(theta)^m`, `b` the
+/// brightness commanded (0..1), `m = ln 0.5 / ln cos(theta_half)` so the beam is at half its
+/// axial intensity at `theta_half`; the luminous flux is `2 pi I_0 b / (m + 1)`.
+/// Illuminance on a surface at distance `r` with incidence cosine `n.l`:
+/// `E = I(theta) n.l / r^2` (inverse-square falloff). The lamp casts no shadow rays: it sits
+/// [`WRIST_LAMP_OFFSET_M`] from the lens, so the camera sees almost none of its shadows.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lamp {
+    /// Axial intensity at full brightness, `I_0` (cd).
+    pub intensity_cd: f64,
+    /// Brightness commanded, `b` (0..1).
+    pub brightness: f64,
+    /// Half-intensity half-angle of the beam, `theta_half` (deg).
+    pub half_angle_deg: f64,
+    /// Position in the camera's optical frame (m).
+    pub offset_m: [f64; 3],
+    /// Colour (linear RGB, luminance 1).
+    pub rgb: [f64; 3],
+}
+
+/// Axial intensity of the wrist lamp (cd): with [`WRIST_LAMP_HALF_ANGLE_DEG`] about
+/// 1,400 lm, a 12-15 W white LED work light; 4,900 lx at the 0.45 m working distance, 1,000 lx
+/// at 1 m (overcast daylight is 1-10 klx).
+pub const WRIST_LAMP_INTENSITY_CD: f64 = 1_000.0;
+/// Half-intensity half-angle of its beam (deg): wider than the wrist camera's 40 x 33 deg
+/// view, whose corners (25 deg off the axis) get 71% of the axial intensity.
+pub const WRIST_LAMP_HALF_ANGLE_DEG: f64 = 35.0;
+/// Its position in the camera's optical frame (m): 4 cm above the lens.
+pub const WRIST_LAMP_OFFSET_M: [f64; 3] = [0.0, -0.04, 0.0];
+/// Its colour: a 5000 K white LED (linear RGB, luminance 1).
+pub const WRIST_LAMP_RGB: [f64; 3] = [1.06, 0.99, 0.86];
+
+impl Lamp {
+    /// The wrist lamp ([`WRIST_LAMP_INTENSITY_CD`] ...) at `brightness` (clamped to 0..1).
+    #[must_use]
+    pub fn wrist(brightness: f64) -> Self {
+        Self {
+            intensity_cd: WRIST_LAMP_INTENSITY_CD,
+            brightness: brightness.clamp(0.0, 1.0),
+            half_angle_deg: WRIST_LAMP_HALF_ANGLE_DEG,
+            offset_m: WRIST_LAMP_OFFSET_M,
+            rgb: normalized(WRIST_LAMP_RGB),
+        }
+    }
+
+    /// The beam exponent `m` (struct docs).
+    #[must_use]
+    pub fn beam_exponent(&self) -> f64 {
+        0.5_f64.ln() / self.half_angle_deg.to_radians().cos().ln().min(-1e-9)
+    }
+
+    /// Intensity (cd) at `cos_theta` off the axis (0 behind the lamp).
+    #[must_use]
+    pub fn intensity_at(&self, cos_theta: f64) -> f64 {
+        if cos_theta <= 0.0 {
+            return 0.0;
+        }
+        self.intensity_cd * self.brightness * cos_theta.powf(self.beam_exponent())
+    }
+
+    /// Luminous flux (lm): `2 pi I_0 b / (m + 1)`.
+    #[must_use]
+    pub fn flux_lm(&self) -> f64 {
+        2.0 * std::f64::consts::PI * self.intensity_cd * self.brightness
+            / (self.beam_exponent() + 1.0)
+    }
 }
 
 fn smoothstep(a: f64, b: f64, x: f64) -> f64 {
@@ -125,7 +201,15 @@ impl LightConditions {
             sun_rgb,
             sky_zenith_rgb,
             sky_horizon_rgb,
+            lamp: None,
         }
+    }
+
+    /// The same daylight with `lamp` beside the camera (`None`, or a brightness of 0: unlit).
+    #[must_use]
+    pub fn with_lamp(mut self, lamp: Option<Lamp>) -> Self {
+        self.lamp = lamp.filter(|l| l.brightness > 0.0 && l.intensity_cd > 0.0);
+        self
     }
 
     /// Global horizontal illuminance (lx): `E_sun max(0, sin e) + E_sky`.
@@ -170,16 +254,23 @@ impl LightConditions {
     }
 
     /// Mean illuminant colour seen by a camera (for white balance): the horizontal mix of
-    /// sun and sky colours, luminance-normalised.
+    /// sun and sky colours and, when lit, the lamp's at [`LAMP_WHITE_BALANCE_DISTANCE_M`] on
+    /// its axis, luminance-normalised.
     #[must_use]
     pub fn illuminant_rgb(&self) -> [f64; 3] {
         let es = self.sun_normal_lux * self.sun_direction.z.max(0.0);
         let ek = self.sky_horizontal_lux;
         let sky = mix(self.sky_zenith_rgb, self.sky_horizon_rgb, 0.5);
+        let (el, lamp) = self.lamp.map_or((0.0, [0.0; 3]), |l| {
+            (
+                l.intensity_at(1.0) / LAMP_WHITE_BALANCE_DISTANCE_M.powi(2),
+                l.rgb,
+            )
+        });
         normalized([
-            es * self.sun_rgb[0] + ek * sky[0],
-            es * self.sun_rgb[1] + ek * sky[1],
-            es * self.sun_rgb[2] + ek * sky[2],
+            es * self.sun_rgb[0] + ek * sky[0] + el * lamp[0],
+            es * self.sun_rgb[1] + ek * sky[1] + el * lamp[1],
+            es * self.sun_rgb[2] + ek * sky[2] + el * lamp[2],
         ])
     }
 }

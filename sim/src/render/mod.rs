@@ -60,7 +60,7 @@ pub use camera_model::{
     world_from_camera_looking_at, wrist_camera,
 };
 pub use depth_sensor::{DepthSensorParams, depth_to_mm};
-pub use light::LightConditions;
+pub use light::{Lamp, LightConditions};
 pub use rgb_sensor::{Exposure, RgbSensorParams};
 
 use crate::scene::textures::NoiseCache;
@@ -628,7 +628,7 @@ pub fn render_rgbd_with_rays(
         origin: Point3::from(world_from_camera.translation.vector),
         footprint_per_m: 1.0 / k.fx.min(k.fy),
     };
-    let setup = LightSetup::new(light, sensor.shadows);
+    let setup = LightSetup::new(light, sensor.shadows).with_camera(world_from_camera);
     let table = rays.normalized();
     let mut radiance = vec![[0.0_f32; 3]; n];
     let mut keys = vec![0_u32; n];

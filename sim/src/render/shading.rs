@@ -3,6 +3,10 @@
 //! `L = rho / pi (E_sun max(0, n.l) V c_sun + E_sky (1 + n_z) / 2 c_sky(n) + E_gnd (1 - n_z) / 2 c_gnd)
 //!      + k_s (e + 8) / (8 pi) (n.h)^e E_sun max(0, n.l) V c_sun`
 //!
+//! plus, when the lamp beside the lens is lit ([`super::light::Lamp`]), its illuminance
+//! `E_lamp = I(theta) max(0, n.l_lamp) / r^2` in both terms, diffuse and the specular lobe
+//! (with `h` halfway between the lamp and the viewer: the lamp's glare on metal).
+//!
 //! Lambertian diffuse (albedo `rho`) lit by the sun (visibility `V` from one shadow ray), the
 //! sky dome as the cosine-weighted hemisphere term `(1 + n_z) / 2` (isotropic sky) and light
 //! bounced off the ground (albedo [`GROUND_BOUNCE_ALBEDO`]) from below; glossy and metallic
@@ -10,7 +14,7 @@
 //! Rendering* 4th ed., eq. 9.xx family) and a mirror reflection of the sky. Units: the output
 //! is luminance-like radiance in cd/m^2 per linear RGB channel, illuminance in lux.
 
-use nalgebra::{Point3, Vector3};
+use nalgebra::{Isometry3, Point3, Vector3};
 
 use super::depth_sensor::DepthSample;
 use super::light::{LightConditions, luminance};
@@ -33,6 +37,20 @@ pub struct LightSetup {
     e_sky: f64,
     e_ground: f64,
     shadows: bool,
+    lamp: Option<LampSetup>,
+}
+
+/// The lamp of a capture, in the world frame.
+#[derive(Clone, Copy, Debug)]
+struct LampSetup {
+    position: Point3<f64>,
+    /// Unit beam axis (the camera's optical axis).
+    axis: Vector3<f64>,
+    /// `I_0 b` (cd).
+    intensity_cd: f64,
+    /// Beam exponent `m`.
+    exponent: f64,
+    rgb: [f64; 3],
 }
 
 impl LightSetup {
@@ -56,7 +74,41 @@ impl LightSetup {
             e_sky: light.sky_horizontal_lux,
             e_ground: GROUND_BOUNCE_ALBEDO * light.horizontal_lux(),
             shadows,
+            lamp: None,
         }
+    }
+
+    /// Places the conditions' lamp (if lit) beside the lens of the camera at
+    /// `world_from_camera` (optical frame, z forward).
+    #[must_use]
+    pub fn with_camera(mut self, world_from_camera: &Isometry3<f64>) -> Self {
+        self.lamp = self.light.lamp.map(|l| LampSetup {
+            position: world_from_camera * Point3::from(l.offset_m),
+            axis: world_from_camera.rotation * Vector3::z(),
+            intensity_cd: l.intensity_cd * l.brightness,
+            exponent: l.beam_exponent(),
+            rgb: l.rgb,
+        });
+        self
+    }
+}
+
+impl LampSetup {
+    /// The lamp's illuminance at `point` with normal `n` (lx) and the unit direction towards
+    /// the lamp (module docs).
+    fn illuminance(&self, point: &Point3<f64>, n: &Vector3<f64>) -> (f64, Vector3<f64>) {
+        let to_lamp = self.position - point;
+        let r2 = to_lamp.norm_squared().max(1e-6);
+        let l = to_lamp / r2.sqrt();
+        let ndl = n.dot(&l);
+        let cos_beam = -l.dot(&self.axis);
+        if ndl <= 0.0 || cos_beam <= 0.0 {
+            return (0.0, l);
+        }
+        (
+            self.intensity_cd * cos_beam.powf(self.exponent) * ndl / r2,
+            l,
+        )
     }
 }
 
@@ -283,6 +335,10 @@ impl SurfaceHit {
                 e_direct = setup.e_sun * ndl;
             }
         }
+        let (e_lamp, to_lamp, lamp_rgb) = setup.lamp.map_or((0.0, n, [0.0; 3]), |lp| {
+            let (e, l) = lp.illuminance(&self.point, &n);
+            (e, l, lp.rgb)
+        });
         let up = n.z.clamp(-1.0, 1.0);
         let sky_w = 0.5 + 0.5 * up;
         let e_sky = setup.e_sky * sky_w;
@@ -292,7 +348,10 @@ impl SurfaceHit {
         let mut rad = [0.0; 3];
         for c in 0..3 {
             let sky_c = l.sky_zenith_rgb[c] + (l.sky_horizon_rgb[c] - l.sky_zenith_rgb[c]) * t;
-            let irr = e_direct * setup.sun_rgb[c] + e_sky * sky_c + e_gnd * l.sky_horizon_rgb[c];
+            let irr = e_direct * setup.sun_rgb[c]
+                + e_sky * sky_c
+                + e_gnd * l.sky_horizon_rgb[c]
+                + e_lamp * lamp_rgb[c];
             rad[c] = a[c] * INV_PI * irr;
         }
         let mut metal = false;
@@ -312,15 +371,19 @@ impl SurfaceHit {
             let v = -ray.dir;
             let refl = ray.dir + n * (2.0 * cos_i);
             let sky = l.sky_radiance(&refl);
-            let hv = setup.sun_dir + v;
-            let spec = if e_direct > 0.0 && hv.norm_squared() > 1e-12 {
-                let nh = n.dot(&hv.normalize()).max(0.0);
-                ks * (e + 8.0) / (8.0 * std::f64::consts::PI) * nh.powf(e) * e_direct
-            } else {
-                0.0
+            let lobe = |to_light: Vector3<f64>, e_light: f64| {
+                let hv = to_light + v;
+                if e_light > 0.0 && hv.norm_squared() > 1e-12 {
+                    let nh = n.dot(&hv.normalize()).max(0.0);
+                    ks * (e + 8.0) / (8.0 * std::f64::consts::PI) * nh.powf(e) * e_light
+                } else {
+                    0.0
+                }
             };
+            let spec = lobe(setup.sun_dir, e_direct);
+            let glare = lobe(to_lamp, e_lamp);
             for c in 0..3 {
-                rad[c] += tint(c) * (spec * setup.sun_rgb[c] + ks * sky[c]);
+                rad[c] += tint(c) * (spec * setup.sun_rgb[c] + ks * sky[c] + glare * lamp_rgb[c]);
             }
         }
         Shaded {
@@ -490,4 +553,38 @@ fn gather<const N: usize>(
         }
     }
     (uv, ppm)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::light::Lamp;
+
+    #[test]
+    fn the_lamp_falls_off_with_the_square_of_distance_and_across_its_beam() {
+        let lamp = Lamp::wrist(0.5);
+        let light = LightConditions::from_hour(20.0).with_lamp(Some(lamp));
+        // Camera at the origin looking along +z; the lamp 4 cm above the lens.
+        let setup = LightSetup::new(&light, false).with_camera(&Isometry3::identity());
+        let lp = setup.lamp.expect("lit");
+        let at = |p: [f64; 3], n: Vector3<f64>| lp.illuminance(&Point3::from(p), &n).0;
+        let facing = -Vector3::z();
+        let (x0, y0) = (lamp.offset_m[0], lamp.offset_m[1]);
+        let e1 = at([x0, y0, 1.0], facing);
+        assert!((e1 - 500.0).abs() < 1e-9, "{e1}");
+        let e2 = at([x0, y0, 2.0], facing);
+        assert!((e2 / e1 - 0.25).abs() < 1e-12, "{e2}");
+        // At the half-intensity angle, on a surface facing the lamp: half the intensity.
+        let h = lamp.half_angle_deg.to_radians();
+        let p = [x0 + h.sin(), y0, h.cos()];
+        let towards_lamp = -Vector3::new(p[0] - x0, 0.0, p[2]).normalize();
+        assert!((at(p, towards_lamp) - 250.0).abs() < 1e-9);
+        // Surfaces facing away and points behind the lamp get nothing.
+        assert_eq!(at([x0, y0, 1.0], Vector3::z()), 0.0);
+        assert_eq!(at([x0, y0, -1.0], Vector3::z()), 0.0);
+        // Off, there is no lamp at all.
+        let dark = LightConditions::from_hour(20.0).with_lamp(Some(Lamp::wrist(0.0)));
+        assert!(dark.lamp.is_none());
+        assert!((Lamp::wrist(1.0).flux_lm() - 1405.0).abs() < 5.0);
+    }
 }

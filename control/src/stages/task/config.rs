@@ -11,6 +11,7 @@ use crate::perception::panoramic::PanoramicParams;
 use crate::perception::wire::WireParams;
 use crate::stages::wire_flow::{LookPolicy, WireFlowParams};
 use crate::tasks::calibration_views::ViewPattern;
+use crate::tasks::lighting::LightingParams;
 use crate::tasks::safety::WindGateParams;
 use crate::tasks::site::SiteMap;
 
@@ -86,6 +87,9 @@ pub struct TaskConfig {
     pub calibration_lift_m: f64,
     /// Wind gate. Default [`WindGateParams::default`].
     pub wind: WindGateParams,
+    /// When to light the scene with the wrist light, on a robot that has one. Default
+    /// [`LightingParams::default`].
+    pub lighting: LightingParams,
     /// Wrist camera standoff from the wire and from the handle (m). Default 0.45.
     pub standoff_m: f64,
     /// Captures of the wire fused. Default 3.
@@ -144,6 +148,7 @@ impl Default for TaskConfig {
             calibration_views: ViewPattern::CALIBRATION_18,
             calibration_lift_m: 0.4,
             wind: WindGateParams::default(),
+            lighting: LightingParams::default(),
             standoff_m: 0.45,
             wire_captures: 3,
             handle_captures: 2,
@@ -173,7 +178,8 @@ impl TaskConfig {
     /// Reads `task.*` through `r` for a task of `kind` (`start_s`, `self_maintenance`,
     /// `standoff_m`, `wire_captures`, `handle_captures`, `approach_m`, `attempts`,
     /// `clamp_torque_nm`, `operation_timeout_s`, `wind_sigmas`, `wind_hold_timeout_s`,
-    /// `min_confidence`, `latency_ms`); other fields keep [`Default`]'s.
+    /// `min_confidence`, `latency_ms`, `light_on_below_lux`, `light_off_above_lux`,
+    /// `light_brightness`); other fields keep [`Default`]'s.
     ///
     /// # Errors
     /// [`scenario::ParamError::Value`] for a wrong type or an out-of-range value.
@@ -196,6 +202,39 @@ impl TaskConfig {
             wind.hold_timeout,
             "refuse after holding for the wind this long",
         )?;
+        let lighting = LightingParams {
+            on_below_lux: s.f64_in(
+                "light_on_below_lux",
+                d.lighting.on_below_lux,
+                0.0..=200_000.0,
+                "lx",
+                "light the scene with the wrist light (where the robot has one) while the lux meter reads below this",
+            )?,
+            off_above_lux: s.f64_in(
+                "light_off_above_lux",
+                d.lighting.off_above_lux,
+                0.0..=200_000.0,
+                "lx",
+                "switch the wrist light off above this (>= light_on_below_lux)",
+            )?,
+            brightness: s.f64_in(
+                "light_brightness",
+                d.lighting.brightness,
+                0.0..=1.0,
+                "",
+                "wrist light brightness when on (0..1)",
+            )?,
+        };
+        if lighting.off_above_lux < lighting.on_below_lux {
+            return Err(scenario::ParamError::Value {
+                key: "task.light_off_above_lux".to_owned(),
+                value: lighting.off_above_lux.to_string(),
+                reason: format!(
+                    "below task.light_on_below_lux = {} lx: the light would flicker",
+                    lighting.on_below_lux
+                ),
+            });
+        }
         let mut thresholds = d.thresholds;
         thresholds.min_score = s.f64(
             "min_confidence",
@@ -254,6 +293,7 @@ impl TaskConfig {
             )?,
             latency: s.millis("latency_ms", d.latency, "stage latency")?,
             wind,
+            lighting,
             thresholds,
             ..d
         })

@@ -15,9 +15,9 @@ use super::action::Action;
 use super::config::{TaskConfig, TaskKind};
 use super::steps::{
     approach, begin, capture_empty_rack, capture_handle, capture_rack, capture_wire,
-    check_calibration, close_clamp, drive, grasp_handle, grasp_rack, lift_out, look_empty_rack,
-    look_handle, look_rack, look_wire, open_clamp, panoramic, rack, raise_for_look, recalibrate,
-    release, retreat, stow, to_pre_approach, unhook,
+    check_calibration, check_more, close_clamp, drive, grasp_handle, grasp_rack, lift_out,
+    look_empty_rack, look_handle, look_rack, look_wire, open_clamp, panoramic, rack,
+    raise_for_look, recalibrate, release, retreat, stow, to_pre_approach, unhook,
 };
 
 /// One step: its `/task/event` state name, the plan of its actions when it starts, the
@@ -105,6 +105,8 @@ pub(crate) enum When {
     Always,
     /// With [`TaskConfig::self_maintenance`] on.
     SelfMaintenance,
+    /// Never on the way through: only when a verdict goes to it ([`Next::Goto`]).
+    OnRequest,
 }
 
 /// One entry of a flow.
@@ -119,13 +121,14 @@ pub(crate) struct Entry {
 }
 
 /// Drive to the working spot, stow, and the calibration's self-maintenance: the start of
-/// the hang and of the remove. The check's verdict leads to the recalibration (drifted,
-/// cannot tell) or past it (consistent).
-const PREPARE: [(&StepDef, When); 5] = [
+/// the hang and of the remove. The check's verdict leads to four more views (unresolved),
+/// the recalibration (drifted, cannot tell) or past it (consistent).
+const PREPARE: [(&StepDef, When); 6] = [
     (&begin::STEP, When::Always),
     (&drive::STEP, When::Always),
     (&stow::STEP, When::Always),
     (&check_calibration::STEP, When::SelfMaintenance),
+    (&check_more::STEP, When::OnRequest),
     (&recalibrate::STEP, When::SelfMaintenance),
 ];
 
@@ -159,12 +162,14 @@ const REMOVE: [&StepDef; 9] = [
     &retreat::STEP,
 ];
 
-/// The calibration check on its own: its verdict ends the task.
-const CHECK: [&StepDef; 5] = [
+/// The calibration check on its own: its verdict ends the task (after four more views
+/// when it was unresolved).
+const CHECK: [&StepDef; 6] = [
     &begin::STEP,
     &drive::STEP,
     &stow::STEP,
     &check_calibration::STEP,
+    &check_more::STEP,
     &retreat::STEP,
 ];
 
@@ -198,7 +203,11 @@ impl Flow {
             steps.iter().map(move |&step| Entry {
                 phase,
                 step,
-                when: When::Always,
+                when: if step.name == check_more::NAME {
+                    When::OnRequest
+                } else {
+                    When::Always
+                },
             })
         };
         let entries = match kind {
@@ -239,6 +248,7 @@ impl Flow {
             .find(|(_, e)| match e.when {
                 When::Always => true,
                 When::SelfMaintenance => config.self_maintenance,
+                When::OnRequest => false,
             })
             .map(|(j, _)| j)
     }

@@ -1,7 +1,9 @@
 //! The robot as the task stage's inputs report it: arm, lift and clamp from
 //! `/joint_states`, odometry (`map -> base_link`) and every other edge from `/tf` and
 //! `/tf_static`, the wrist and panoramic cameras from their `camera_info`, the wind from
-//! `/env/wind` (the [`WindGate`]), and the wrist colour image waiting for its depth image.
+//! `/env/wind` (the [`WindGate`]), the daylight from `/env/illuminance` and the wrist light
+//! from `/wrist_light/state` ([`Lighting`]), and the wrist colour image waiting for its depth
+//! image.
 //! The log time of the latest input is the stage's only clock.
 
 use msgs::RobotTime;
@@ -16,6 +18,7 @@ use super::config::TaskConfig;
 use super::flow::Stop;
 use crate::perception::colour::PendingColour;
 use crate::perception::point_cloud::{CameraModel, RayTable};
+use crate::tasks::lighting::Lighting;
 use crate::tasks::safety::WindGate;
 use crate::tasks::site::BasePose;
 
@@ -53,6 +56,8 @@ pub(crate) struct RobotState {
     pub base_still_since: Option<RobotTime>,
     /// The wrist colour image of the capture in progress.
     pub colour: PendingColour,
+    /// The wrist light's state and the lux meter.
+    pub lighting: Lighting,
     /// `tool0_from_camera` until `/tf` carries the camera edge.
     nominal_tool0_from_camera: Isometry3<f64>,
 }
@@ -85,6 +90,7 @@ impl RobotState {
             odometry_stamp_ns: None,
             base_still_since: None,
             colour: PendingColour::default(),
+            lighting: Lighting::default(),
             nominal_tool0_from_camera: config.nominal_tool0_from_camera,
         }
     }

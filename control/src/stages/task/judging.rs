@@ -1,7 +1,8 @@
 //! Judging: the verdicts that decide where a flow goes after a step's actions are done.
 //!
 //! * **Calibration** ([`Task::judge_calibration`]): the calibration stage's answer to the
-//!   drift check (`consistent` goes on, `drifted` and `cannot_tell` recalibrate) and to the
+//!   drift check (`consistent` goes on, `unresolved` looks four more times, `drifted` and
+//!   `cannot_tell` recalibrate) and to the
 //!   recalibration (`accepted` goes on; otherwise `calibration_failed`, or
 //!   `calibration_unverifiable` when the check could not tell either). The check task ends
 //!   with the check's verdict.
@@ -9,7 +10,8 @@
 //!   captures gives the hook goal; a refused estimate looks again once, then refuses
 //!   (`low_confidence`). The panoramic fix ([`Task::judge_panoramic`]) tries the next frame
 //!   until [`TaskConfig::panoramic_attempts`](super::TaskConfig::panoramic_attempts), then
-//!   refuses (`no_wire`).
+//!   refuses (`no_wire`), unless the wrist light is on: then the wrist camera looks at the
+//!   site map's prior (`panoramic_dark`).
 //! * **Handle** ([`Task::judge_handle`]): a fit per capture (RMS at most
 //!   [`TaskConfig::handle_max_rms_m`](super::TaskConfig::handle_max_rms_m), confirmed in
 //!   colour), centres agreeing within
@@ -39,8 +41,8 @@ use super::config::TaskKind;
 use super::flow::{Next, Stop};
 use super::memory::{HandleSite, Rod};
 use super::steps::{
-    capture_empty_rack, capture_handle, capture_rack, capture_wire, close_clamp, grasp_handle,
-    grasp_rack, look_handle, look_rack, look_wire, recalibrate,
+    capture_empty_rack, capture_handle, capture_rack, capture_wire, check_more, close_clamp,
+    grasp_handle, grasp_rack, look_handle, look_rack, look_wire, recalibrate,
 };
 use crate::perception::PerceptionError;
 use crate::perception::handle::fit_handle;
@@ -86,6 +88,11 @@ impl Task {
                 "the calibration stage did not answer",
             ));
         };
+        // Unresolved: no drift seen, but four views could miss one of the target size;
+        // eight views resolve about 1.5x finer.
+        if check && answer.reason_code == "unresolved" && !self.memory.check_extended {
+            return Ok(Next::Goto(check_more::NAME));
+        }
         if self.config.kind == TaskKind::Check {
             self.memory.done_reason = match answer.reason_code.as_str() {
                 "consistent" => "consistent",
@@ -274,6 +281,20 @@ impl Task {
         ) {
             PanoramicOutcome::Fixed(_) => Ok(Next::Following),
             PanoramicOutcome::Retry { .. } => Ok(Next::Goto(again)),
+            // The wrist light lights the wrist camera's scene, not the bay the panoramic
+            // camera sees: look for the wire at the survey's prior with the lit wrist camera
+            // (its captures are checked in depth and colour as always).
+            PanoramicOutcome::GaveUp { attempts, reason } if self.robot.lighting.lit() => {
+                self.event(
+                    TaskEvent::INFO,
+                    again,
+                    "panoramic_dark",
+                    format!(
+                        "the panoramic camera did not find the wire in {attempts} frames ({reason}); the wrist light is on: looking at the site map's prior with the wrist camera"
+                    ),
+                );
+                Ok(Next::Following)
+            }
             PanoramicOutcome::GaveUp { attempts, reason } => Err(Stop::refused(
                 "no_wire",
                 format!(

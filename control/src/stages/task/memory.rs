@@ -49,6 +49,8 @@ pub(crate) struct Memory {
     pub calibration_answer: Option<TaskEvent>,
     /// Why the drift check could not tell, while the recalibration that answers it runs.
     pub unverified_check: Option<String>,
+    /// The drift check has had its four more views.
+    pub check_extended: bool,
     /// The measured wire (point on the hanging point's axis, direction; `base_link`).
     pub wire_in_base: Option<(Point3<f64>, Vector3<f64>)>,
     /// `base_from_hook` at the hang.
@@ -84,6 +86,7 @@ impl Memory {
             panoramic_image: None,
             calibration_answer: None,
             unverified_check: None,
+            check_extended: false,
             wire_in_base: None,
             hook_goal: None,
             grasp_goal: None,

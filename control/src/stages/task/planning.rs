@@ -31,6 +31,17 @@ use crate::motion::trajectory::DEFAULT_DT_NS;
 use crate::tasks::poses;
 use crate::tasks::site::rod_capsules;
 
+/// Which views of the calibration target ([`Planner::views`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum ViewBatch {
+    /// The drift check's.
+    Check,
+    /// Four more for a check that could not resolve a bump of the target size.
+    CheckMore,
+    /// The recalibration's.
+    Calibrate,
+}
+
 /// The drift check looks at this point above the calibration target's centre (m).
 pub const CHECK_LOOK_ABOVE_M: f64 = 0.15;
 /// Elevations of the view of the stored rod's handle, lowest first (deg).
@@ -565,17 +576,21 @@ impl Planner<'_> {
         Ok(actions)
     }
 
-    /// The views of the site's calibration target: the drift check's (`check`: calib's
-    /// [`calib::selfcal::CHECK_MOTION`] around a point [`CHECK_LOOK_ABOVE_M`] above the
-    /// target's centre) or the recalibration's ([`TaskConfig::calibration_views`](super::TaskConfig::calibration_views)).
-    /// The lift goes to the calibration height, `/calibration/command` `check` or `collect`,
+    /// The views of the site's calibration target: the drift check's ([`ViewBatch::Check`]:
+    /// calib's [`calib::selfcal::CHECK_MOTION`] around a point [`CHECK_LOOK_ABOVE_M`] above
+    /// the target's centre), the check's four more ([`ViewBatch::CheckMore`]:
+    /// [`calib::selfcal::drift::CHECK_MOTION_MORE`] around the same point) or the
+    /// recalibration's ([`TaskConfig::calibration_views`](super::TaskConfig::calibration_views)).
+    /// The lift goes to the calibration height, `/calibration/command` `check`, `extend` or
+    /// `collect`,
     /// the arm visits every view and captures, returns to stow and the lift to where it was,
     /// then `solve` and the wait for the answer.
     ///
     /// # Errors
     /// `bad_site_map` for a vertical or zero target normal; as the plans (the text names
     /// the view).
-    pub fn views(&self, check: bool) -> Result<Vec<Action>, Stop> {
+    pub fn views(&self, batch: ViewBatch) -> Result<Vec<Action>, Stop> {
+        let check = batch != ViewBatch::Calibrate;
         let config = &self.task.config;
         let base_from_map = self.base_from_map()?;
         let centre = base_from_map * config.site.calibration_target;
@@ -599,7 +614,12 @@ impl Planner<'_> {
                     &nalgebra::Rotation3::from_basis_unchecked(&[x, normal.cross(&x), normal]),
                 ),
             );
-            calib::selfcal::drift::check_camera_poses(&target, &calib::selfcal::CHECK_MOTION)
+            let poses: &[calib::selfcal::drift::CheckPose] = if batch == ViewBatch::CheckMore {
+                &calib::selfcal::drift::CHECK_MOTION_MORE
+            } else {
+                &calib::selfcal::CHECK_MOTION
+            };
+            calib::selfcal::drift::check_camera_poses(&target, poses)
         } else {
             config
                 .calibration_views
@@ -620,7 +640,11 @@ impl Planner<'_> {
             actions.push(Action::lift(lift0, lift, "lift to the calibration height"));
         }
         actions.push(Action::calibration(
-            if check { "check" } else { "collect" },
+            match batch {
+                ViewBatch::Check => "check",
+                ViewBatch::CheckMore => "extend",
+                ViewBatch::Calibrate => "collect",
+            },
             Until::Issued,
             "calibration batch",
         ));

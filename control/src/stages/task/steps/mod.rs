@@ -8,6 +8,7 @@
 //! | [`drive`] | all | the base to the working spot | - |
 //! | [`stow`] | all | arm to stow, lift down | - |
 //! | [`check_calibration`] | all (self-maintenance; the check task) | the drift check's views | the calibration stage's verdict |
+//! | [`check_more`] | all (on an `unresolved` check) | four more drift check views | the calibration stage's verdict on all eight |
 //! | [`recalibrate`] | hang, remove (on drift) | the 18 calibration views | the calibration stage's answer |
 //! | [`look_rack`] | hang | coupling probe, camera on the stored rod | - |
 //! | [`capture_rack`] | hang | wrist captures | the stored rod's handle fit |
@@ -39,6 +40,7 @@ pub(crate) mod capture_handle;
 pub(crate) mod capture_rack;
 pub(crate) mod capture_wire;
 pub(crate) mod check_calibration;
+pub(crate) mod check_more;
 pub(crate) mod close_clamp;
 pub(crate) mod drive;
 pub(crate) mod grasp_handle;

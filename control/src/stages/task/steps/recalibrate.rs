@@ -4,6 +4,7 @@
 use crate::stages::task::Task;
 use crate::stages::task::action::Action;
 use crate::stages::task::flow::{Next, StepDef, Stop};
+use crate::stages::task::planning::ViewBatch;
 
 /// The step's event name.
 pub(crate) const NAME: &str = "recalibrate";
@@ -15,7 +16,7 @@ pub(crate) const STEP: StepDef = StepDef {
 };
 
 fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
-    let actions = task.planner().views(false)?;
+    let actions = task.planner().views(ViewBatch::Calibrate)?;
     task.memory.calibration_answer = None;
     Ok(actions)
 }

@@ -195,6 +195,74 @@ fn recalibrate_runs_the_calibration_views_on_drift_and_goes_on_when_accepted() {
 }
 
 #[test]
+fn an_unresolved_check_looks_four_more_times_then_goes_by_the_verdict_on_all_eight() {
+    // Consistent on all eight: past the recalibration.
+    let mut rig = Rig::with(TaskKind::Hang, |_, b| {
+        b.calibration = ["unresolved", "consistent"].into();
+    });
+    until_after(&mut rig, "check_more");
+    assert_eq!(
+        calibration_commands(&rig, "check_more"),
+        ["extend", "solve"]
+    );
+    assert_eq!(
+        count(&rig, "check_more", CAMERA_TRIGGER),
+        calib::selfcal::drift::CHECK_MOTION_MORE.len()
+    );
+    assert_eq!(
+        rig.steps(),
+        [
+            "begin",
+            "drive",
+            "stow",
+            "check_calibration",
+            "check_more",
+            "look_rack"
+        ]
+    );
+    // Still unresolved after eight: recalibrate (once; no third look).
+    let mut rig = Rig::with(TaskKind::Hang, |_, b| {
+        b.calibration = ["unresolved", "unresolved", "accepted"].into();
+    });
+    until_after(&mut rig, "recalibrate");
+    assert_eq!(
+        rig.steps(),
+        [
+            "begin",
+            "drive",
+            "stow",
+            "check_calibration",
+            "check_more",
+            "recalibrate",
+            "look_rack"
+        ]
+    );
+    // The check task ends with the verdict on all eight.
+    for (second, ends) in [
+        ("drifted", "drifted"),
+        ("consistent", "consistent"),
+        ("unresolved", "cannot_tell"),
+    ] {
+        let mut rig = Rig::with(TaskKind::Check, |_, b| {
+            b.calibration = ["unresolved", second].into();
+        });
+        rig.run(LIMIT_S);
+        assert_ended(&rig, TaskEvent::DONE, ends);
+        assert_eq!(
+            rig.steps(),
+            [
+                "begin",
+                "drive",
+                "stow",
+                "check_calibration",
+                "check_more",
+                "retreat"
+            ]
+        );
+    }
+}
+
+#[test]
 fn look_rack_probes_the_clamp_and_points_the_camera_at_the_stored_rod() {
     let mut rig = Rig::with(TaskKind::Hang, |c, _| c.self_maintenance = false);
     until_after(&mut rig, "look_rack");
