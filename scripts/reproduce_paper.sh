@@ -22,8 +22,11 @@
 #
 # The protocol (full): matchers every set; noise 6 levels x 100; motions 100 per count;
 # datasets 100 + shecar; ablation 100 per cell; tasks 100 seeded sites (Table 4); light
-# 50 runs per hour on seeded sites (Table 5); wind 0-4 m/s in 0.5 m/s bins, 50 each; maintenance
-# 50 per bump bin.
+# 50 runs per hour on seeded sites (Table 5), and 17:00-19:30 again with the wrist light;
+# wind 0-4 m/s in 0.5 m/s bins, 50 each; maintenance 50 per bump bin.
+#
+# The report's summary at its top lists every figure where rodlog is behind the paper or a
+# peer (each experiment's "Beside the paper" table, the `comparisons` of its results.json).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -73,7 +76,7 @@ else
     shecar_note="**The shecar sample was not found: the matchers and datasets tables below have no shecar rows (the paper's dataset 2).** Get it with \`git clone --depth 1 https://github.com/STAR-Center/shecar\` and rerun with \`--shecar shecar/data/monocular\`."
 fi
 
-# name|options at full size|options at smoke size
+# folder[=experiment]|options at full size|options at smoke size
 protocol=(
     "matchers||--trials 1 --image-scale 0.25"
     "noise|--trials 100|--trials 1 --image-scale 0.25"
@@ -82,6 +85,7 @@ protocol=(
     "ablation|--trials 100|--trials 1 --image-scale 0.25"
     "tasks|--trials 100 --sites seeded|--trials 1 --sites seeded --image-scale 0.5"
     "light|--trials 50 --sites seeded|--trials 1 --hours 12,18.5 --sites seeded --image-scale 0.5"
+    "light-wrist=light|--trials 50 --sites seeded --hours 17,17.5,18,18.5,19,19.5 --wrist-light on|--trials 1 --hours 19 --sites seeded --wrist-light on --image-scale 0.5"
     "wind|--trials 50 --sites seeded --speeds 0,0.5,1,1.5,2,2.5,3,3.5,4|--trials 1 --speeds 1,3 --sites seeded --image-scale 0.5"
     "maintenance|--trials 50 --sites seeded|--trials 1 --sites seeded --image-scale 0.5"
 )
@@ -90,7 +94,9 @@ mkdir -p "$out"
 started=$(date +%s)
 rows=""
 for entry in "${protocol[@]}"; do
-    IFS='|' read -r name full smoke <<<"$entry"
+    IFS='|' read -r folder full smoke <<<"$entry"
+    name=${folder%%=*}
+    experiment=${folder#*=}
     opts=$full
     [ "$size" = smoke ] && opts=$smoke
     dir="$out/$name"
@@ -101,9 +107,9 @@ for entry in "${protocol[@]}"; do
     if [ -n "$ray" ]; then
         n=${shards:-$("${RODLOG_REF_VENV:-.venv-ref}/bin/python" -c "import ray; ray.init(address='$ray'); print(max(1, int(ray.cluster_resources().get('CPU', 1)) * 2))" 2>/dev/null | tail -1)}
         "${RODLOG_REF_VENV:-.venv-ref}/bin/python" scripts/ray/rodlog_ray.py --address "$ray" \
-            --rodlog "$rodlog" experiment "$name" --shards "$n" --out "$dir" -- $opts >&2
+            --rodlog "$rodlog" experiment "$experiment" --shards "$n" --out "$dir" -- $opts >&2
     else
-        "$rodlog" experiment "$name" $opts --out "$dir" >&2
+        "$rodlog" experiment "$experiment" $opts --out "$dir" >&2
     fi
     wall=$(( $(date +%s) - t0 ))
     rows="$rows| [$name]($name/report.md) | \`$opts\` | $wall |"$'\n'
@@ -122,12 +128,44 @@ dirty=$(git status --porcelain 2>/dev/null | grep -qv '^??' && echo " (with unco
     echo "(on a Ray cluster of N one-CPU workers the experiments' runs divide by about N: they are"
     echo "independent trials; each experiment's merge is seconds)."
     echo
+    echo "## Where rodlog is behind the paper or a peer"
+    echo
+    # Every experiment's comparisons (results.json), the behind ones listed.
+    names=()
+    for entry in "${protocol[@]}"; do
+        IFS='|' read -r folder _ _ <<<"$entry"
+        names+=("${folder%%=*}")
+    done
+    python3 - "$out" "${names[@]}" <<'PY'
+import json, sys
+out, names = sys.argv[1], sys.argv[2:]
+behind, compared = [], 0
+for name in names:
+    try:
+        with open(f"{out}/{name}/results.json") as f:
+            comparisons = json.load(f)["sections"].get("comparisons", [])
+    except (OSError, ValueError, KeyError) as e:
+        behind.append(f"- **{name}**: no results ({e})")
+        continue
+    compared += len(comparisons)
+    for c in comparisons:
+        if c["behind"]:
+            behind.append(f"- **{name}**: {c['what']}: paper {c['paper']}; rodlog {c['rodlog']}")
+if behind:
+    print(f"{len(behind)} of {compared} compared figures (each experiment's \"Beside the paper\" table has them all):")
+    print()
+    print("\n".join(behind))
+else:
+    print(f"None: rodlog is level with or ahead of the paper and its peers on all {compared} compared figures.")
+PY
+    echo
     echo "| experiment | options | wall (s) |"
     echo "|---|---|---|"
     printf '%s' "$rows"
     echo
     for entry in "${protocol[@]}"; do
-        IFS='|' read -r name _ _ <<<"$entry"
+        IFS='|' read -r folder _ _ <<<"$entry"
+        name=${folder%%=*}
         echo
         # Each experiment's report, its headings one level down and its pictures re-rooted.
         sed -e 's/^#/##/' -e "s#](plots/#]($name/plots/#g" -e "s#](images/#]($name/images/#g" "$out/$name/report.md"

@@ -1,6 +1,7 @@
 //! The committed experiment results (`results/`) agree with themselves: every condition of
 //! each `results.json` appears in its `report.md` with the same runs, successes, refusals,
-//! failures and unsafe commands, and every plot the report shows is committed beside it.
+//! failures and unsafe commands (the maintenance bins with the same verdict counts), and
+//! every plot the report shows is committed beside it.
 //! The numbers were made by the command in `results/README.md`; a report edited by hand, or
 //! regenerated without its results.json, fails here.
 
@@ -40,30 +41,44 @@ fn committed_reports_say_what_their_results_say() {
         )
         .expect("results.json parses");
         let report = std::fs::read_to_string(dir.join("report.md")).expect("report.md");
-        let groups = json["sections"]["groups"]
-            .as_array()
-            .unwrap_or_else(|| panic!("{}: no groups", dir.display()));
-        assert!(!groups.is_empty(), "{}", dir.display());
-        for g in groups {
-            let cells = [
-                g["condition"].as_str().expect("condition").to_owned(),
-                g["runs"].to_string(),
-                g["success"].to_string(),
-            ];
-            let row = format!("| {} |", cells.join(" | "));
-            let line = report
-                .lines()
-                .find(|l| l.starts_with(&row))
-                .unwrap_or_else(|| panic!("{}: no row {row}", dir.display()));
-            let tail: Vec<&str> = line.split('|').map(str::trim).collect();
-            // | condition | runs | success | rate | interval | refused | failed | unsafe | ...
-            for (k, key) in [(6, "refused"), (7, "failed"), (8, "unsafe_commands")] {
-                assert_eq!(
-                    tail.get(k).copied(),
-                    Some(g[key].to_string().as_str()),
-                    "{}: {key} of {line}",
-                    dir.display()
-                );
+        let sections = &json["sections"];
+        if let Some(groups) = sections["groups"].as_array() {
+            // The task experiments: | condition | runs | success | rate | interval | refused
+            // | failed | unsafe | ...
+            assert!(!groups.is_empty(), "{}", dir.display());
+            for g in groups {
+                let row = row_of(&dir, &report, &[&g["condition"], &g["runs"], &g["success"]]);
+                for (k, key) in [(6, "refused"), (7, "failed"), (8, "unsafe_commands")] {
+                    assert_eq!(
+                        row.get(k).map(String::as_str),
+                        Some(g[key].to_string().as_str()),
+                        "{}: {key} of {row:?}",
+                        dir.display()
+                    );
+                }
+            }
+        } else {
+            // The maintenance experiment: | bin | runs | drifted | consistent | cannot tell
+            // | 4 views: cannot tell | looked again | ...
+            let bins = sections["bins"]
+                .as_array()
+                .unwrap_or_else(|| panic!("{}: neither groups nor bins", dir.display()));
+            assert!(!bins.is_empty(), "{}", dir.display());
+            for b in bins {
+                let row = row_of(&dir, &report, &[&b["bin"], &b["runs"], &b["drifted"]]);
+                for (k, key) in [
+                    (4, "consistent"),
+                    (5, "cannot_tell"),
+                    (6, "first_cannot_tell"),
+                    (7, "extended"),
+                ] {
+                    assert_eq!(
+                        row.get(k).map(String::as_str),
+                        Some(b[key].to_string().as_str()),
+                        "{}: {key} of {row:?}",
+                        dir.display()
+                    );
+                }
             }
         }
         for image in report
@@ -79,4 +94,19 @@ fn committed_reports_say_what_their_results_say() {
             );
         }
     }
+}
+
+/// The cells of the report's table row that starts with `first` (strings unquoted), from
+/// the leading `|` on (cell 0 is empty).
+fn row_of(dir: &Path, report: &str, first: &[&serde_json::Value]) -> Vec<String> {
+    let cells: Vec<String> = first
+        .iter()
+        .map(|v| v.as_str().map_or_else(|| v.to_string(), str::to_owned))
+        .collect();
+    let start = format!("| {} |", cells.join(" | "));
+    let line = report
+        .lines()
+        .find(|l| l.starts_with(&start))
+        .unwrap_or_else(|| panic!("{}: no row {start}", dir.display()));
+    line.split('|').map(|c| c.trim().to_owned()).collect()
 }

@@ -11,11 +11,12 @@
 use anyhow::Result;
 
 use super::Settings;
+use super::noise::CellSummary;
 use super::noise::{
     METHODS, SimContext, VIEWS, all_answered, all_answered_table, book_trials, box_plots,
     error_table, refusal_table, run_trials,
 };
-use super::report::{Report, Results};
+use super::report::{Report, Results, fmt_pct};
 use super::stats::Summary;
 
 /// Trials when `--trials` is not given (the paper's).
@@ -61,6 +62,8 @@ pub fn run(settings: &Settings) -> Result<()> {
     ));
     let (table, rows) = error_table(&conditions, &cells, &refusals, "motions");
     report.table(&table);
+    let mut comparisons = super::noise::below_zhi_everywhere(&rows, "number of motions (Fig. 14)");
+    comparisons.extend(stable_from(&rows, &conditions, &counts, STABLE_FROM));
     let (common, common_trials) = all_answered(&records, &conditions);
     let (common_table, common_rows) =
         all_answered_table(&conditions, &common, &common_trials, "motions");
@@ -114,6 +117,8 @@ pub fn run(settings: &Settings) -> Result<()> {
     results.section("cells", &rows)?;
     results.section("cells_all_answered", &common_rows)?;
     results.section("refusals", &refusals)?;
+    report.comparisons(&comparisons);
+    results.section("comparisons", &comparisons)?;
     report.write(settings.out.root())?;
     settings.write_results(&results)?;
     crate::cmd::print_stdout(&format!(
@@ -121,4 +126,57 @@ pub fn run(settings: &Settings) -> Result<()> {
         settings.out.root().join("report.md").display()
     ))?;
     Ok(())
+}
+
+/// The paper's Fig. 14: the error is stable from this many motions.
+pub const STABLE_FROM: usize = 16;
+/// "Stable": every median from [`STABLE_FROM`] motions on within this fraction of the median
+/// at the most motions.
+pub const STABLE_WITHIN: f64 = 0.2;
+
+/// A median of a cell.
+type Pick = fn(&CellSummary) -> f64;
+
+/// The paper's "stable from `from` motions" beside ours-rgbd's and ours-mono's median `e_t`
+/// and `e_R` (`rows` of [`error_table`], `conditions[k]` the label of `counts[k]` motions).
+fn stable_from(
+    rows: &[CellSummary],
+    conditions: &[String],
+    counts: &[usize],
+    from: usize,
+) -> Vec<super::report::Comparison> {
+    let mut out = Vec::new();
+    let Some(last) = conditions.last() else {
+        return out;
+    };
+    for method in ["ours-rgbd", "ours-mono"] {
+        let median = |cond: &str, pick: Pick| {
+            rows.iter()
+                .find(|r| r.method == method && r.condition == cond)
+                .map_or(f64::NAN, pick)
+        };
+        let picks: [Pick; 2] = [|c| c.e_r.median, |c| c.e_t_mm.median];
+        let mut worst: f64 = 0.0;
+        for pick in picks {
+            let reference = median(last, pick);
+            for (cond, _) in conditions.iter().zip(counts).filter(|(_, n)| **n >= from) {
+                worst = worst.max((median(cond, pick) / reference - 1.0).abs());
+            }
+        }
+        out.push(super::report::Comparison::new(
+            &format!("{method}: median e_R and e_t stable from {from} motions (Fig. 14)"),
+            "yes",
+            if worst.is_finite() {
+                format!(
+                    "within {} of the median at {} motions",
+                    fmt_pct(worst, 0),
+                    counts.last().copied().unwrap_or(0)
+                )
+            } else {
+                "not measured at these counts".to_owned()
+            },
+            worst.is_nan() || worst > STABLE_WITHIN,
+        ));
+    }
+    out
 }

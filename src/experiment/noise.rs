@@ -49,7 +49,7 @@ use sim::render::{
 };
 
 use super::progress::Progress;
-use super::report::{Report, Results, Table, fmt_num};
+use super::report::{Comparison, Report, Results, Table, fmt_num};
 use super::stats::{RefusalCounter, Summary};
 use super::{Settings, trial_seed};
 
@@ -677,6 +677,55 @@ pub fn error_table(
     (table, rows)
 }
 
+/// The paper's claim beside `rows` (an [`error_table`]'s): for ours-rgbd and ours-mono, the
+/// median `e_R` and `e_t` below ZHI's at every condition (`what` names the figure). Behind
+/// where one condition's median is not.
+pub fn below_zhi_everywhere(rows: &[CellSummary], what: &str) -> Vec<Comparison> {
+    let mut out = Vec::new();
+    for method in ["ours-rgbd", "ours-mono"] {
+        type Pick = fn(&CellSummary) -> f64;
+        let picks: [(&str, Pick, usize); 2] = [
+            ("e_R", |c| c.e_r.median, 5),
+            ("e_t mm", |c| c.e_t_mm.median, 2),
+        ];
+        for (name, pick, decimals) in picks {
+            let mut worse = Vec::new();
+            let mut levels = 0;
+            for ours in rows.iter().filter(|r| r.method == method) {
+                let Some(zhi) = rows
+                    .iter()
+                    .find(|r| r.method == "zhi" && r.condition == ours.condition)
+                else {
+                    continue;
+                };
+                levels += 1;
+                let (o, z) = (pick(ours), pick(zhi));
+                if !(o.is_finite() && z.is_finite()) {
+                    worse.push(format!("{}: no answers to compare", ours.condition));
+                } else if o >= z {
+                    worse.push(format!(
+                        "{}: {} vs {}",
+                        ours.condition,
+                        fmt_num(o, decimals),
+                        fmt_num(z, decimals)
+                    ));
+                }
+            }
+            out.push(Comparison::new(
+                &format!("{method}: median {name} below ZHI's at every {what}"),
+                "yes (ours smaller and tighter)",
+                if worse.is_empty() {
+                    format!("yes, at all {levels}")
+                } else {
+                    format!("not at {} of {levels} ({})", worse.len(), worse.join("; "))
+                },
+                !worse.is_empty() || levels == 0,
+            ));
+        }
+    }
+    out
+}
+
 /// Box plots of e_R and e_t (PNG + SVG) into the report.
 ///
 /// # Errors
@@ -779,6 +828,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     ));
     let (table, rows) = error_table(&conditions, &cells, &refusals, "noise");
     report.table(&table);
+    let comparisons = below_zhi_everywhere(&rows, "noise level (Fig. 13)");
     let (common, common_trials) = all_answered(&records, &conditions);
     let (common_table, common_rows) =
         all_answered_table(&conditions, &common, &common_trials, "noise");
@@ -808,6 +858,8 @@ pub fn run(settings: &Settings) -> Result<()> {
     results.section("cells", &rows)?;
     results.section("cells_all_answered", &common_rows)?;
     results.section("refusals", &refusals)?;
+    report.comparisons(&comparisons);
+    results.section("comparisons", &comparisons)?;
     report.write(settings.out.root())?;
     settings.write_results(&results)?;
     crate::cmd::print_stdout(&format!(
@@ -820,6 +872,39 @@ pub fn run(settings: &Settings) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn row(condition: &str, method: &str, e_r: f64, e_t_mm: f64) -> CellSummary {
+        CellSummary {
+            condition: condition.to_owned(),
+            method: method.to_owned(),
+            attempts: 1,
+            refused: 0,
+            e_r: Summary::of(&[e_r]),
+            theta_deg: Summary::of(&[0.0]),
+            e_t_mm: Summary::of(&[e_t_mm]),
+            samples: Cell::default(),
+        }
+    }
+
+    #[test]
+    fn behind_zhi_where_one_level_is_not_below_or_has_no_answers() {
+        let mut rows = Vec::new();
+        for (c, zhi_t) in [("a", 2.0), ("b", 0.5)] {
+            rows.push(row(c, "ours-rgbd", 0.001, 1.0));
+            rows.push(row(c, "ours-mono", f64::NAN, f64::NAN));
+            rows.push(row(c, "zhi", 0.002, zhi_t));
+        }
+        let c = below_zhi_everywhere(&rows, "level");
+        let get = |what: &str| c.iter().find(|x| x.what.starts_with(what)).expect(what);
+        assert!(!get("ours-rgbd: median e_R").behind);
+        let t = get("ours-rgbd: median e_t");
+        assert!(
+            t.behind && t.rodlog.contains("not at 1 of 2 (b: 1.00 vs 0.50)"),
+            "{t:?}"
+        );
+        let m = get("ours-mono: median e_R");
+        assert!(m.behind && m.rodlog.contains("no answers"), "{m:?}");
+    }
 
     fn outcomes(answers: [Option<f64>; METHODS.len()]) -> MethodOutcomes {
         METHODS

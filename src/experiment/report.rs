@@ -117,6 +117,33 @@ pub fn fmt_pct(x: f64, decimals: usize) -> String {
     }
 }
 
+/// One figure of the paper beside rodlog's on the same protocol (an experiment's
+/// "Beside the paper" table, and the summary `scripts/reproduce_paper.sh` writes at the top
+/// of the whole report).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Comparison {
+    /// What is compared, with the paper's table or figure.
+    pub what: String,
+    /// The paper's figure.
+    pub paper: String,
+    /// rodlog's, with its interval where it has one.
+    pub rodlog: String,
+    /// rodlog is behind the paper here.
+    pub behind: bool,
+}
+
+impl Comparison {
+    /// A comparison (fields as named).
+    pub fn new(what: &str, paper: &str, rodlog: String, behind: bool) -> Self {
+        Self {
+            what: what.to_owned(),
+            paper: paper.to_owned(),
+            rodlog,
+            behind,
+        }
+    }
+}
+
 /// The markdown report under construction; [`Report::write`] saves it as `report.md`.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Report {
@@ -145,6 +172,24 @@ impl Report {
     pub fn table(&mut self, table: &Table) {
         self.text.push_str(&table.to_markdown());
         self.text.push('\n');
+    }
+
+    /// The "Beside the paper" section: one row per [`Comparison`], `behind` where rodlog is.
+    pub fn comparisons(&mut self, comparisons: &[Comparison]) {
+        if comparisons.is_empty() {
+            return;
+        }
+        self.heading("Beside the paper");
+        let mut t = Table::new(&["", "paper", "rodlog", "rodlog is"]);
+        for c in comparisons {
+            t.row(vec![
+                c.what.clone(),
+                c.paper.clone(),
+                c.rodlog.clone(),
+                if c.behind { "behind" } else { "level or ahead" }.to_owned(),
+            ]);
+        }
+        self.table(&t);
     }
 
     /// An image, by a path relative to the report (e.g. `"plots/true_rate.png"`).

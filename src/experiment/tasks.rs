@@ -14,7 +14,7 @@
 use anyhow::Result;
 use serde::Serialize;
 
-use super::report::{Report, Results, fmt_num};
+use super::report::{Comparison, Report, Results, fmt_num, fmt_pct};
 use super::task_runs::{GroupSummary, RunSpec, outcome_table, run_selected, summarize, world_seed};
 use super::{Settings, trial_seed};
 
@@ -166,7 +166,10 @@ pub fn run(settings: &Settings) -> Result<()> {
     let files = viz::plots::write_box_plot(&boxes, &settings.out.plot_stem("time"))?;
     report.image("operation time", &settings.out.relative(&files.png));
 
+    let comparisons = paper_comparisons(&groups, gains);
+    report.comparisons(&comparisons);
     let mut json = Results::new("tasks", settings.seed);
+    json.section("comparisons", &comparisons)?;
     json.seeds.clone_from(&seeds);
     json.parameter("trials", trials)?;
     json.parameter("camera_scale", camera_scale)?;
@@ -196,4 +199,46 @@ pub fn run(settings: &Settings) -> Result<()> {
     settings.write_results(&json)?;
     let path = report.write(settings.out.root())?;
     crate::cmd::print_stdout(&path.display().to_string())
+}
+
+/// The paper's success rate with self-calibration after a bump (Table 4, about 95 %).
+pub const PAPER_SUCCESS: f64 = 0.95;
+
+/// Table 4 beside the paper: the success with self-calibration (hang `groups[0]`, remove
+/// `groups[2]`), the gains in points, and the operation time under 5 minutes.
+fn paper_comparisons(groups: &[GroupSummary], gains: [f64; 2]) -> Vec<Comparison> {
+    let mut out = Vec::new();
+    for (k, task) in [(0, "hang"), (2, "remove")] {
+        let Some(g) = groups.get(k) else { continue };
+        out.push(Comparison::new(
+            &format!("{task} success with self-calibration after a bump (Table 4)"),
+            "about 95 %",
+            format!(
+                "{} ({} - {}, {}/{})",
+                fmt_pct(g.success_rate, 0),
+                fmt_pct(g.success_rate_95.0, 0),
+                fmt_pct(g.success_rate_95.1, 0),
+                g.success,
+                g.runs
+            ),
+            g.success_rate.is_nan() || g.success_rate < PAPER_SUCCESS,
+        ));
+    }
+    for (k, task) in ["hang", "remove"].iter().enumerate() {
+        out.push(Comparison::new(
+            &format!("{task}: gain of self-calibration (Table 4)"),
+            &format!("+{} points", PAPER_GAIN_POINTS[k]),
+            format!("{} points", fmt_num(gains[k], 0)),
+            gains[k].is_nan() || gains[k] < PAPER_GAIN_POINTS[k],
+        ));
+    }
+    let over: usize = groups.iter().map(|g| g.over_5_min).sum();
+    let max_s = groups.iter().map(|g| g.max_s).fold(0.0, f64::max);
+    out.push(Comparison::new(
+        "every operation under 5 minutes (Table 4)",
+        "yes",
+        format!("{over} at 5 min or more; longest {} s", fmt_num(max_s, 0)),
+        over > 0,
+    ));
+    out
 }
