@@ -6,10 +6,19 @@
 //! daylight do (hysteresis: the meter's noise never makes the lamp flicker). Why a lux meter
 //! and not the images: the camera's auto-exposure keeps the image mean up until its longest
 //! exposure and highest gain run out, so a dark image tells too late, after a capture was
-//! lost; the meter tells before the first capture, as a car's light sensor does. Below
-//! 2 klx (the sun 3 deg above the horizon) the wrist images' signal-to-noise ratio already
-//! falls with the gain. The lamp is switched off when the operation ends. A robot without
-//! the light never gets a command.
+//! lost; the meter tells before the first capture, as a car's light sensor does. The lamp is
+//! switched off when the operation ends. A robot without the light never gets a command.
+//!
+//! # Why 30 lx, not at sunset
+//! The lamp turns the silhouettes around: by day the stored rod's dark grip stands against
+//! the bright sky; lit by the lamp at night it stands bright against a black one. In between
+//! the lamp-lit grip and the twilight sky behind it are about as bright, and the colour
+//! confirmation cannot see the grip's edge. Measured on seeded sites (hangs with the
+//! self-maintenance on): with the lamp, a site's hang was refused (`low_confidence`, the
+//! handle's `colour_contrast`) from 400 lx (18:00) down to 50 lx (18:09) and succeeded from
+//! 28 lx (18:12) on; without it, the same hangs succeeded down to 28 lx and were refused from
+//! 15 lx (18:15). So the lamp comes on below 30 lx, where the camera alone gives out, and not
+//! before, and goes off above 60 lx.
 //!
 //! What the light reaches: the wrist camera's scene (the wire, the handle, the rack and the
 //! calibration target at 0.3-1 m), never the panoramic camera's view of the bay. So when the
@@ -19,9 +28,9 @@
 /// When to light ([`decide`]); every default is documented on its field.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LightingParams {
-    /// Light the scene while the lux meter reads below this (lx). Default 2000.
+    /// Light the scene while the lux meter reads below this (lx). Default 30 (module docs).
     pub on_below_lux: f64,
-    /// Switch off when it reads above this (lx). Default 3000.
+    /// Switch off when it reads above this (lx). Default 60.
     pub off_above_lux: f64,
     /// Brightness when on (0..1). Default 1.
     pub brightness: f64,
@@ -30,8 +39,8 @@ pub struct LightingParams {
 impl Default for LightingParams {
     fn default() -> Self {
         Self {
-            on_below_lux: 2000.0,
-            off_above_lux: 3000.0,
+            on_below_lux: 30.0,
+            off_above_lux: 60.0,
             brightness: 1.0,
         }
     }
@@ -83,20 +92,28 @@ mod tests {
         let p = LightingParams::default();
         let mut l = Lighting {
             state: Some(0.0),
-            lux: Some(400.0),
+            lux: Some(3.0),
             commanded: None,
         };
         assert_eq!(decide(&l, &p, true), Some(1.0));
         l.commanded = Some(1.0);
         assert_eq!(decide(&l, &p, true), None);
         // Noise around the on threshold does not switch it off...
-        l.lux = Some(2500.0);
+        l.lux = Some(45.0);
         assert_eq!(decide(&l, &p, true), None);
-        // ...daylight does, and the end of the operation does.
-        l.lux = Some(3500.0);
+        // ...more light does (sunset's 400 lx: the lamp would hide the grip), and the end of
+        // the operation does.
+        l.lux = Some(400.0);
         assert_eq!(decide(&l, &p, true), Some(0.0));
-        l.lux = Some(100.0);
+        l.lux = Some(3.0);
         assert_eq!(decide(&l, &p, false), Some(0.0));
+        // At sunset it stays off.
+        let sunset = Lighting {
+            state: Some(0.0),
+            lux: Some(400.0),
+            commanded: None,
+        };
+        assert_eq!(decide(&sunset, &p, true), None);
         // Daylight: nothing to do.
         let day = Lighting {
             state: Some(0.0),
