@@ -426,8 +426,10 @@ pub fn run(settings: &Settings) -> Result<()> {
 }
 
 /// The paper's Table 2 claim per pair set: ORB + quadtree + GMS (`orb-gms`) has a true-match
-/// rate more than 20 % (relative) above ORB + brute force (`orb-bf`) and is faster; and, where
-/// the OpenCV reference ran, a true-match rate at least OpenCV ORB + BF + GMS's (a peer).
+/// rate more than 20 % (relative) above ORB + brute force (`orb-bf`); and, where the OpenCV
+/// reference ran, a true-match rate at least OpenCV ORB + BF + GMS's (a peer). Its other
+/// claim, "faster", is a wall time: the criterion benchmarks measure it, and the results of
+/// an experiment stay the same bytes for the same seed.
 fn paper_comparisons(summaries: &[CellSummary]) -> Vec<super::report::Comparison> {
     use super::report::{Comparison, fmt_num, fmt_pct};
     let mut out = Vec::new();
@@ -451,16 +453,6 @@ fn paper_comparisons(summaries: &[CellSummary]) -> Vec<super::report::Comparison
                     fmt_num(bf.pooled_true_rate, 3)
                 ),
                 gain.is_nan() || gain <= 0.2,
-            ));
-            out.push(Comparison::new(
-                &format!("{}: ORB + GMS faster than ORB + BF (Table 2)", set.name()),
-                "yes",
-                format!(
-                    "median {} ms vs {} ms",
-                    fmt_num(ours.time_ms.median, 1),
-                    fmt_num(bf.time_ms.median, 1)
-                ),
-                ours.time_ms.median.is_nan() || ours.time_ms.median >= bf.time_ms.median,
             ));
         }
         if let Some(cv) = get(OPENCV_METHOD) {
