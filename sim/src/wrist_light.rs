@@ -49,8 +49,7 @@ impl WristLightSim {
 
     /// Applies a due command.
     pub fn advance(&mut self, now: RobotTime) {
-        if let Some((at, b)) = self.pending.filter(|(at, _)| *at <= now) {
-            let _ = at;
+        if let Some((_, b)) = self.pending.filter(|(at, _)| *at <= now) {
             self.brightness = b;
             self.pending = None;
         }
