@@ -9,9 +9,10 @@
 
 use anyhow::Result;
 
-use super::report::{Comparison, Report, Results, fmt_pct};
-use super::task_runs::GroupSummary;
-use super::task_runs::{RunSpec, outcome_table, run_conditions, world_seed};
+use super::report::{Comparison, Report, Results};
+use super::task_runs::{
+    GroupSummary, RunSpec, fmt_share, outcome_table, pooled_split, run_conditions, world_seed,
+};
 use super::{Settings, trial_seed};
 
 /// Trials per hour when `--trials` is not given.
@@ -141,32 +142,22 @@ pub fn run(settings: &Settings) -> Result<()> {
 /// Table 5 beside the paper: no failures outside 18:00-19:00, every operation under 5
 /// minutes, and what rodlog does in the paper's failing hour.
 fn paper_comparisons(hours: &[(f64, u64)], groups: &[GroupSummary]) -> Vec<Comparison> {
-    let (mut out_ok, mut out_runs, mut in_ok, mut in_runs, mut over) = (0, 0, 0, 0, 0);
-    for ((h, _), g) in hours.iter().zip(groups) {
-        if (18.0..=19.0).contains(h) {
-            in_ok += g.success;
-            in_runs += g.runs;
-        } else {
-            out_ok += g.success;
-            out_runs += g.runs;
-        }
-        over += g.over_5_min;
-    }
-    let rate = |ok: usize, runs: usize| fmt_pct(ok as f64 / runs.max(1) as f64, 0);
+    let (dusk, day) = pooled_split(hours, groups, |h| (18.0..=19.0).contains(&h));
+    let over: usize = groups.iter().map(|g| g.over_5_min).sum();
     let mut out = Vec::new();
-    if out_runs > 0 {
+    if day.1 > 0 {
         out.push(Comparison::new(
             "success outside 18:00-19:00 (Table 5)",
             "no failures",
-            format!("{out_ok}/{out_runs} ({})", rate(out_ok, out_runs)),
-            out_ok < out_runs,
+            fmt_share(day),
+            day.0 < day.1,
         ));
     }
-    if in_runs > 0 {
+    if dusk.1 > 0 {
         out.push(Comparison::new(
             "success from 18:00 to 19:00 (Table 5)",
             "failures (the paper's robot stops in this hour)",
-            format!("{in_ok}/{in_runs} ({})", rate(in_ok, in_runs)),
+            fmt_share(dusk),
             // The paper fails here too: rodlog cannot be behind it.
             false,
         ));

@@ -248,6 +248,31 @@ pub struct GroupSummary {
     pub median_hook_fraction: f64,
 }
 
+/// Successes and runs pooled over the groups whose condition value (`values[k]` for
+/// `groups[k]`) `inside` accepts, and over the others: `((ok, runs) inside, (ok, runs)
+/// outside)`.
+pub fn pooled_split(
+    values: &[(f64, u64)],
+    groups: &[GroupSummary],
+    inside: impl Fn(f64) -> bool,
+) -> ((usize, usize), (usize, usize)) {
+    let (mut a, mut b) = ((0, 0), (0, 0));
+    for ((v, _), g) in values.iter().zip(groups) {
+        let pool = if inside(*v) { &mut a } else { &mut b };
+        pool.0 += g.success;
+        pool.1 += g.runs;
+    }
+    (a, b)
+}
+
+/// `"ok/runs (p%)"`.
+pub fn fmt_share((ok, runs): (usize, usize)) -> String {
+    format!(
+        "{ok}/{runs} ({})",
+        super::report::fmt_pct(ok as f64 / runs.max(1) as f64, 0)
+    )
+}
+
 /// Runs `specs` as `settings.mode` says (all, one shard, or none for merged shards) with a
 /// progress bar named `name`; `None` for a shard run.
 ///

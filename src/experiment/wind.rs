@@ -9,9 +9,10 @@
 
 use anyhow::Result;
 
-use super::report::{Comparison, Report, Results, fmt_num, fmt_pct};
-use super::task_runs::GroupSummary;
-use super::task_runs::{RunSpec, outcome_table, run_conditions, world_seed};
+use super::report::{Comparison, Report, Results, fmt_num};
+use super::task_runs::{
+    GroupSummary, RunSpec, fmt_share, outcome_table, pooled_split, run_conditions, world_seed,
+};
 use super::{Settings, trial_seed};
 
 /// Trials per speed when `--trials` is not given.
@@ -133,34 +134,21 @@ pub const GOOD_SUCCESS: f64 = 0.9;
 /// The paper's "good at <= 2 m/s" beside the success at those speeds, and what rodlog does
 /// above them.
 fn paper_comparisons(speeds: &[(f64, u64)], groups: &[GroupSummary]) -> Vec<Comparison> {
-    let (mut ok, mut runs, mut above_ok, mut above_runs) = (0, 0, 0, 0);
-    for ((v, _), g) in speeds.iter().zip(groups) {
-        if *v <= 2.0 {
-            ok += g.success;
-            runs += g.runs;
-        } else {
-            above_ok += g.success;
-            above_runs += g.runs;
-        }
-    }
-    let rate = |ok: usize, runs: usize| ok as f64 / runs.max(1) as f64;
+    let (allowed, above) = pooled_split(speeds, groups, |v| v <= 2.0);
     let mut out = Vec::new();
-    if runs > 0 {
+    if allowed.1 > 0 {
         out.push(Comparison::new(
             "hang success at mean winds up to 2 m/s",
             "good (read: >= 90 %)",
-            format!("{ok}/{runs} ({})", fmt_pct(rate(ok, runs), 0)),
-            rate(ok, runs) < GOOD_SUCCESS,
+            fmt_share(allowed),
+            (allowed.0 as f64) < GOOD_SUCCESS * allowed.1 as f64,
         ));
     }
-    if above_runs > 0 {
+    if above.1 > 0 {
         out.push(Comparison::new(
             "hang success above 2 m/s",
             "not operated (the paper's limit)",
-            format!(
-                "{above_ok}/{above_runs} ({})",
-                fmt_pct(rate(above_ok, above_runs), 0)
-            ),
+            fmt_share(above),
             false,
         ));
     }

@@ -164,13 +164,13 @@ const REMOVE: [&StepDef; 9] = [
 
 /// The calibration check on its own: its verdict ends the task (after four more views
 /// when it was unresolved).
-const CHECK: [&StepDef; 6] = [
-    &begin::STEP,
-    &drive::STEP,
-    &stow::STEP,
-    &check_calibration::STEP,
-    &check_more::STEP,
-    &retreat::STEP,
+const CHECK: [(&StepDef, When); 6] = [
+    (&begin::STEP, When::Always),
+    (&drive::STEP, When::Always),
+    (&stow::STEP, When::Always),
+    (&check_calibration::STEP, When::Always),
+    (&check_more::STEP, When::OnRequest),
+    (&retreat::STEP, When::Always),
 ];
 
 /// The calibration on demand: the recalibration's views without a check first; the
@@ -194,20 +194,17 @@ impl Flow {
     /// ([`HANG`], [`REMOVE`]); the demo is [`PREPARE`], [`HANG`], [`REMOVE`]; the check
     /// is [`CHECK`], the calibration on demand [`SELF_CALIBRATE`].
     pub fn of(kind: TaskKind) -> Self {
-        let prepare = |phase| {
-            PREPARE
+        let listed = |phase, steps: &'static [(&'static StepDef, When)]| {
+            steps
                 .iter()
                 .map(move |&(step, when)| Entry { phase, step, when })
         };
+        let prepare = |phase| listed(phase, &PREPARE);
         let operation = |phase, steps: &'static [&'static StepDef]| {
             steps.iter().map(move |&step| Entry {
                 phase,
                 step,
-                when: if step.name == check_more::NAME {
-                    When::OnRequest
-                } else {
-                    When::Always
-                },
+                when: When::Always,
             })
         };
         let entries = match kind {
@@ -221,7 +218,7 @@ impl Flow {
                 .chain(operation(TaskKind::Hang, &HANG))
                 .chain(operation(TaskKind::Remove, &REMOVE))
                 .collect(),
-            TaskKind::Check => operation(TaskKind::Check, &CHECK).collect(),
+            TaskKind::Check => listed(TaskKind::Check, &CHECK).collect(),
             TaskKind::SelfCalibrate => {
                 operation(TaskKind::SelfCalibrate, &SELF_CALIBRATE).collect()
             }
