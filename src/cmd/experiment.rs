@@ -99,6 +99,12 @@ pub struct ExperimentOptions {
     #[arg(long, value_enum, default_value_t = OnOff::Off)]
     #[serde(default)]
     pub wrist_light: OnOff,
+    /// The task experiments: keep the recording of every run that did not succeed in
+    /// `OUT/runs/` (for `rodlog log`, `rodlog check task`, `rodlog view`); the others are
+    /// deleted. Not recorded in a shard file: it changes no number.
+    #[arg(long)]
+    #[serde(skip)]
+    pub keep_failed: bool,
 }
 
 /// `--wrist-light`.
@@ -257,6 +263,7 @@ fn run_named(
             hours: options.hours.clone(),
             seeded_sites: options.sites == Sites::Seeded,
             wrist_light: options.wrist_light == OnOff::On,
+            keep_failed: options.keep_failed,
             out: OutputDir::create(out)?,
             mode: mode.clone(),
             arguments: serde_json::to_string(options)?,

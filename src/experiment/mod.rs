@@ -77,6 +77,9 @@ pub struct Settings {
     pub seeded_sites: bool,
     /// `--wrist-light on`: the light experiment's robot has a wrist light.
     pub wrist_light: bool,
+    /// `--keep-failed`: the task experiments keep the recordings of the runs that did not
+    /// succeed.
+    pub keep_failed: bool,
     /// The output folder (created).
     pub out: OutputDir,
     /// All items, one shard of them, or the records of merged shards ([`shard`]).

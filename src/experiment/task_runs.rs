@@ -94,12 +94,13 @@ pub struct RunResult {
     pub recording: Option<PathBuf>,
 }
 
-/// Records and judges one run in `dir` (module docs); the recording is deleted unless `keep`.
+/// Records and judges one run in `dir` (module docs); the recording is deleted unless `keep`
+/// says to keep it.
 ///
 /// # Errors
 /// Scenario, pipeline, simulator and recording errors (a task refusing or failing is a
 /// result, not an error).
-pub fn run(spec: &RunSpec, dir: &Path, keep: bool) -> Result<RunResult> {
+pub fn run(spec: &RunSpec, dir: &Path, keep: Keep) -> Result<RunResult> {
     let text = spec.scenario_toml();
     let origin = format!("{}-{}", spec.task, spec.seed);
     let mut scenario = scenario::Scenario::parse(&text, &origin)
@@ -135,7 +136,7 @@ pub fn run(spec: &RunSpec, dir: &Path, keep: bool) -> Result<RunResult> {
     compose::record(&plan, &options, Vec::new())?;
     let wall_s = started.elapsed().as_secs_f64();
     let verdict = judge(&out)?;
-    let recording = if keep {
+    let recording = if keep == Keep::Failed && !verdict.success {
         Some(out)
     } else {
         std::fs::remove_file(&out).with_context(|| format!("removing {}", out.display()))?;
@@ -147,6 +148,15 @@ pub fn run(spec: &RunSpec, dir: &Path, keep: bool) -> Result<RunResult> {
         wall_s,
         recording,
     })
+}
+
+/// Which runs' recordings [`run`] keeps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Keep {
+    /// None (the experiments' default).
+    None,
+    /// Those of the runs that did not succeed (`--keep-failed`).
+    Failed,
 }
 
 /// A trial seed as a scenario seed: TOML integers are `i64`, so the top bit is dropped.
@@ -169,6 +179,7 @@ pub fn world_seed(trial_seed: u64) -> u64 {
 pub fn run_all(
     specs: &[RunSpec],
     dir: &Path,
+    keep: Keep,
     progress: &super::progress::Progress,
 ) -> Result<Vec<RunResult>> {
     use std::sync::Mutex;
@@ -184,7 +195,7 @@ pub fn run_all(
                 while !failed.load(Ordering::Relaxed) {
                     let i = next.fetch_add(1, Ordering::Relaxed);
                     let Some(spec) = specs.get(i) else { break };
-                    let r = run(spec, dir, false);
+                    let r = run(spec, dir, keep);
                     if r.is_err() {
                         failed.store(true, Ordering::Relaxed);
                     }
@@ -286,7 +297,12 @@ pub fn run_selected(
     settings.run_items(specs.len(), |ids| {
         let chosen: Vec<RunSpec> = ids.iter().filter_map(|&i| specs.get(i).cloned()).collect();
         let progress = super::progress::Progress::new(name, chosen.len() as u64);
-        let results = run_all(&chosen, &runs_dir(&settings.out)?, &progress);
+        let keep = if settings.keep_failed {
+            Keep::Failed
+        } else {
+            Keep::None
+        };
+        let results = run_all(&chosen, &runs_dir(&settings.out)?, keep, &progress);
         progress.finish();
         results
     })
