@@ -159,7 +159,7 @@ fn a_windy_start_is_waited_for_then_refused_without_a_command() {
     let dir = tempfile::tempdir().expect("tmp");
     let rec = dir.path().join("windy.mcap");
     let mut sets = QUICK.to_vec();
-    sets.push("wind.mean_mps=3.5");
+    sets.push("wind.mean_mps=8.0");
     record("hang", &rec, &sets);
     let (ok, v) = judge(&rec);
     assert!(ok, "{v}");
@@ -175,11 +175,41 @@ fn a_windy_start_is_waited_for_then_refused_without_a_command() {
 }
 
 #[test]
+fn in_a_3_mps_wind_the_hang_tracks_the_swing_hooks_and_replays_identically() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let rec = dir.path().join("windy.mcap");
+    record(
+        "hang-windy",
+        &rec,
+        &[
+            "task.self_maintenance=false",
+            "camera.scale=0.25",
+            "panoramic.scale=0.5",
+        ],
+    );
+    let (ok, v) = judge(&rec);
+    assert!(ok, "{v}");
+    assert_eq!(v["outcome"], "done", "{v}");
+    assert_eq!(v["success"], true, "{v}");
+    assert_eq!(v["rod_state"], "clamped", "{v}");
+    assert_no_unsafe_command(&v);
+    // Commands went out above the paper's 2 m/s, below rodlog's 4 m/s.
+    let max_wind = v["max_wind_at_command_mps"].as_f64().unwrap_or(f64::NAN);
+    assert!((2.0..=4.0).contains(&max_wind), "{v}");
+    let log = rodlog(&["log", rec.to_str().expect("utf-8")]);
+    let text = String::from_utf8_lossy(&log.stdout);
+    assert!(text.contains("[wire_sway]"), "{text}");
+    assert!(text.contains("3 more captures to track it"), "{text}");
+    assert!(text.contains("the hook goes to the centre"), "{text}");
+    assert_replays_identically(&rec);
+}
+
+#[test]
 fn the_judge_catches_a_colliding_command_and_commands_in_high_wind() {
     let dir = tempfile::tempdir().expect("tmp");
-    // The forearm hanging beside the lowered platform hits the chassis; the wind is 3 m/s.
+    // The forearm hanging beside the lowered platform hits the chassis; the wind is 6 m/s.
     let text = "name = \"unsafe\"\nseed = 3\nduration_s = 6.0\nhour = 11.0\ntask = \"none\"\n\n\
-                [wind]\nmean_mps = 3.0\n\n[camera]\nscale = 0.1\n\n[panoramic]\nperiod_s = 0.0\n\n\
+                [wind]\nmean_mps = 6.0\n\n[camera]\nscale = 0.1\n\n[panoramic]\nperiod_s = 0.0\n\n\
                 [[command]]\nt_s = 2.0\nkind = \"joints\"\nvalues = [0.0, -1.5707963, 1.5707963, 0.0, 0.0, 0.0]\n\n\
                 [[command]]\nt_s = 4.0\nkind = \"capture\"\n";
     let file = dir.path().join("unsafe.toml");

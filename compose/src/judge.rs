@@ -7,12 +7,17 @@
 //! scenario and seed (every primitive of the scene, `sim::scene`), takes the arm's *true*
 //! (perturbed) DH table from the same seed, the true base pose (`/sim/base_pose`), the true
 //! rod pose (`/sim/handle_pose`) and state (`/sim/rod_state`), the true wire with its sway
-//! (`/sim/wire_pose`) and the true 3-s mean wind (`/sim/wind`).
+//! (`/sim/wire_pose`) and the true 3-s mean wind (`/sim/wind`). A motion is judged against
+//! the wire where it swings while the robot moves: each sampled configuration of an arm
+//! trajectory or a lift move at the time the command's timing reaches it, against every
+//! recorded wire pose within 0.25 s of that time.
 //!
 //! # What is unsafe
 //! A command (`/arm/joint_trajectory`, `/lift/command`, `/base/goal`, `/clamp/command`,
 //! `/camera/trigger`) is unsafe when
-//! * it is issued while the true 3-s mean wind exceeds [`WIND_LIMIT_MPS`];
+//! * it is issued while the true 3-s mean wind exceeds the limit: the robot's rating
+//!   [`WIND_LIMIT_MPS`], or the site's lower one when the recording's scenario sets
+//!   `task.wind_limit_mps`;
 //! * an arm trajectory has a via point outside the joint limits, or the motion it commands
 //!   from the true configuration (joint-space segments between the via points, sampled every
 //!   [`SAMPLE_RAD`]) would bring the true arm, or the rod it holds, into contact with the
@@ -48,8 +53,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::ComposeError;
 
-/// The operating wind limit (m/s, 3-s mean).
-pub const WIND_LIMIT_MPS: f64 = 2.0;
+pub use control::tasks::safety::WIND_LIMIT_MPS;
 /// Largest joint step between two judged samples of an arm motion (rad).
 pub const SAMPLE_RAD: f64 = 0.01;
 /// Static primitives within this of the stored rod's axis belong to the rack (m).
@@ -285,6 +289,7 @@ impl Truth {
         let arm = ArmCollisionModel {
             model: model.clone(),
             margin_m: 0.0,
+            self_margin_m: 0.0,
             ..ArmCollisionModel::nominal()
         };
         Self {
@@ -312,8 +317,86 @@ struct State {
     rod_in_gripper: bool,
 }
 
-/// Smallest clearance of the true robot at `(lift, q)` in `state`, with what touched what.
-fn clearance(truth: &Truth, state: &State, lift_m: f64, q: &[f64; 6]) -> (f64, String) {
+/// The target wire's true poses over the recording (`/sim/wire_pose`), read ahead of the
+/// commands so that a motion is judged against the wire where it swings while the robot
+/// moves, not where it was when the command went out.
+struct WireTrack {
+    /// `(t_s, pose)` in time order.
+    poses: Vec<(f64, Isometry3<f64>)>,
+}
+
+impl WireTrack {
+    /// Half width of the window of wire poses a robot configuration is judged against (s):
+    /// the arm and lift follow their commanded timing to a fraction of this.
+    const WINDOW_S: f64 = 0.25;
+
+    fn read(path: &std::path::Path) -> Result<Self, ComposeError> {
+        let read = |source| ComposeError::Read {
+            path: path.to_path_buf(),
+            source: Box::new(source),
+        };
+        let mut reader = McapReader::open(path).map_err(read)?;
+        let mut poses = Vec::new();
+        for m in reader.messages(&ReadFilter::all().with_topics([topics::SIM_WIRE_POSE])) {
+            let m = m.map_err(read)?;
+            let msg = m.decode().map_err(|e| ComposeError::Decode {
+                path: path.to_path_buf(),
+                topic: m.topic().to_owned(),
+                log_time_ns: m.log_time_ns,
+                reason: e.to_string(),
+            })?;
+            if let Msg::PoseStamped(p) = msg {
+                poses.push((
+                    m.log_time_ns as f64 * 1e-9,
+                    robot::conversions::isometry_from_pose(&p.pose),
+                ));
+            }
+        }
+        Ok(Self { poses })
+    }
+
+    /// The poses within [`Self::WINDOW_S`] of `t_s`, and the last one before the window (the
+    /// first pose for a time before it; none without a pose: the wire at rest).
+    fn around(&self, t_s: f64) -> Vec<Isometry3<f64>> {
+        let start = self
+            .poses
+            .partition_point(|(t, _)| *t < t_s - Self::WINDOW_S)
+            .saturating_sub(1);
+        let window: Vec<Isometry3<f64>> = self.poses[start..]
+            .iter()
+            .take_while(|(t, _)| *t <= t_s + Self::WINDOW_S)
+            .map(|(_, p)| *p)
+            .collect();
+        match (window.is_empty(), self.poses.first()) {
+            // Before the first pose: the first.
+            (true, Some((_, first))) => vec![*first],
+            _ => window,
+        }
+    }
+}
+
+/// Time (s) the lift takes to travel `distance_m` from rest (trapezoidal profile at the
+/// nominal lift's speed and acceleration limits, the deceleration at the end ignored).
+fn lift_travel_s(distance_m: f64) -> f64 {
+    use robot::kinematics::{LIFT_ACCEL_MAX_M_S2 as A, LIFT_SPEED_MAX_M_S as V};
+    let ramp_m = V * V / (2.0 * A);
+    if distance_m <= ramp_m {
+        (2.0 * distance_m / A).sqrt()
+    } else {
+        V / A + (distance_m - ramp_m) / V
+    }
+}
+
+/// Smallest clearance of the true robot at `(lift, q)` in `state`, with what touched what,
+/// the target wire at each of `wire_poses` (where it swings while the robot is there; none:
+/// at rest).
+fn clearance(
+    truth: &Truth,
+    state: &State,
+    lift_m: f64,
+    q: &[f64; 6],
+    wire_poses: &[Isometry3<f64>],
+) -> (f64, String) {
     let base = state.map_from_base;
     let links = truth.arm.capsules(lift_m, q);
     let to_map = |c: &Capsule| Capsule {
@@ -344,16 +427,23 @@ fn clearance(truth: &Truth, state: &State, lift_m: f64, q: &[f64; 6]) -> (f64, S
             best = (c, what);
         }
     };
-    let sway = state
-        .wire_pose
-        .map_or_else(Isometry3::identity, |p| p * truth.wire_rest_frame.inverse());
-    let wire: Vec<Capsule> = truth
-        .target_wire_rest
+    let rest = [Isometry3::identity()];
+    let sways: Vec<Isometry3<f64>> = if wire_poses.is_empty() {
+        rest.to_vec()
+    } else {
+        wire_poses
+            .iter()
+            .map(|p| p * truth.wire_rest_frame.inverse())
+            .collect()
+    };
+    let wire: Vec<Capsule> = sways
         .iter()
-        .map(|c| Capsule {
-            a: sway * c.a,
-            b: sway * c.b,
-            radius_m: c.radius_m,
+        .flat_map(|sway| {
+            truth.target_wire_rest.iter().map(move |c| Capsule {
+                a: sway * c.a,
+                b: sway * c.b,
+                radius_m: c.radius_m,
+            })
         })
         .collect();
     for (k, link) in links_map.iter().enumerate() {
@@ -476,6 +566,11 @@ pub fn judge(path: &std::path::Path) -> Result<Verdict, ComposeError> {
             world: plan.world_kind().name().to_owned(),
         });
     };
+    let wind_limit_mps = scenario
+        .params
+        .get("task.wind_limit_mps")
+        .and_then(|v| v.as_float().or(v.as_integer().map(|i| i as f64)))
+        .map_or(WIND_LIMIT_MPS, |l| l.min(WIND_LIMIT_MPS));
     let world = sim::SimWorld::new(config)?;
     let perturbation = config.robot.perturbation;
     let truth = Truth::build(&world, perturbation, scenario.seed);
@@ -483,6 +578,7 @@ pub fn judge(path: &std::path::Path) -> Result<Verdict, ComposeError> {
         path: path.to_path_buf(),
         source: Box::new(source),
     };
+    let wire_track = WireTrack::read(path)?;
     let mut reader = McapReader::open(path).map_err(read)?;
     let filter = ReadFilter::all().with_topics([
         topics::JOINT_STATES,
@@ -621,16 +717,22 @@ pub fn judge(path: &std::path::Path) -> Result<Verdict, ComposeError> {
                 verdict.max_wind_at_command_mps =
                     verdict.max_wind_at_command_mps.max(state.wind_mps);
                 let mut reasons = Vec::new();
-                if state.wind_mps > WIND_LIMIT_MPS {
+                // Switching the wrist light moves nothing: the wind does not make it unsafe.
+                if state.wind_mps > wind_limit_mps && topic != topics::WRIST_LIGHT_COMMAND {
                     reasons.push(format!(
-                        "issued at a true 3-s mean wind of {:.2} m/s (> {WIND_LIMIT_MPS})",
+                        "issued at a true 3-s mean wind of {:.2} m/s (> {wind_limit_mps})",
                         state.wind_mps
                     ));
                 }
                 match msg {
                     Msg::JointTrajectory(jt) => {
                         let mut via: Vec<[f64; 6]> = vec![state.q];
+                        let mut via_s: Vec<f64> = vec![0.0];
                         for p in &jt.points {
+                            via_s.push(
+                                f64::from(p.time_from_start.sec)
+                                    + f64::from(p.time_from_start.nanosec) * 1e-9,
+                            );
                             let mut q = [0.0; 6];
                             for (k, name) in jt.joint_names.iter().enumerate() {
                                 if let Some(robot::JointKind::Arm(i)) =
@@ -649,7 +751,7 @@ pub fn judge(path: &std::path::Path) -> Result<Verdict, ComposeError> {
                             }
                             via.push(q);
                         }
-                        for w in via.windows(2) {
+                        for (w, ws) in via.windows(2).zip(via_s.windows(2)) {
                             let d = (0..6)
                                 .map(|j| (w[1][j] - w[0][j]).abs())
                                 .fold(0.0, f64::max);
@@ -658,7 +760,8 @@ pub fn judge(path: &std::path::Path) -> Result<Verdict, ComposeError> {
                                 let s = k as f64 / n as f64;
                                 let q: [f64; 6] =
                                     std::array::from_fn(|j| w[0][j] + (w[1][j] - w[0][j]) * s);
-                                let (c, what) = clearance(&truth, &state, state.lift_m, &q);
+                                let wire = wire_track.around(t_s + ws[0] + (ws[1] - ws[0]) * s);
+                                let (c, what) = clearance(&truth, &state, state.lift_m, &q, &wire);
                                 verdict.min_clearance_m = verdict.min_clearance_m.min(c);
                                 if c < 0.0 {
                                     reasons.push(format!("collision {what} ({:.1} mm)", c * 1e3));
@@ -675,7 +778,9 @@ pub fn judge(path: &std::path::Path) -> Result<Verdict, ComposeError> {
                         let n = ((h.data - state.lift_m).abs() / 0.02).ceil().max(1.0) as usize;
                         for k in 0..=n {
                             let lift = state.lift_m + (h.data - state.lift_m) * k as f64 / n as f64;
-                            let (c, what) = clearance(&truth, &state, lift, &state.q);
+                            let wire =
+                                wire_track.around(t_s + lift_travel_s((lift - state.lift_m).abs()));
+                            let (c, what) = clearance(&truth, &state, lift, &state.q, &wire);
                             verdict.min_clearance_m = verdict.min_clearance_m.min(c);
                             if c < 0.0 {
                                 reasons.push(format!(
@@ -756,4 +861,38 @@ pub fn judge(path: &std::path::Path) -> Result<Verdict, ComposeError> {
             _ => false,
         };
     Ok(verdict)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_wire_is_taken_where_it_is_around_the_time_the_robot_gets_there() {
+        let at = |y: f64| Isometry3::translation(0.0, y, 0.0);
+        let track = WireTrack {
+            poses: (0..50).map(|k| (k as f64 * 0.1, at(k as f64))).collect(),
+        };
+        let ys = |t: f64| -> Vec<f64> {
+            track
+                .around(t)
+                .iter()
+                .map(|p| p.translation.y.round())
+                .collect()
+        };
+        // 0.25 s either side of 2.0 s, and the pose in force when the window opens.
+        assert_eq!(ys(2.0), vec![17.0, 18.0, 19.0, 20.0, 21.0, 22.0]);
+        // Before the first pose: the first ones; after the last: the last.
+        assert_eq!(ys(-1.0), vec![0.0]);
+        assert_eq!(ys(10.0), vec![49.0]);
+    }
+
+    #[test]
+    fn the_lift_travel_time_follows_its_speed_and_acceleration_limits() {
+        use robot::kinematics::{LIFT_ACCEL_MAX_M_S2 as A, LIFT_SPEED_MAX_M_S as V};
+        assert!(lift_travel_s(0.0).abs() < 1e-12);
+        let ramp = V * V / (2.0 * A);
+        assert!((lift_travel_s(ramp) - V / A).abs() < 1e-9);
+        assert!((lift_travel_s(ramp + 1.0) - (V / A + 1.0 / V)).abs() < 1e-9);
+    }
 }

@@ -507,6 +507,8 @@ mod tests {
             "demo",
             "hang",
             "hang-dusk",
+            "hang-dusk-lit",
+            "hang-windy",
             "op-5min",
             "perceive-wire",
             "remove",

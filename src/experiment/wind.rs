@@ -1,11 +1,13 @@
 //! `rodlog experiment wind` (ARCHITECTURE.md section 7): hang success vs the mean wind speed
-//! ("wind" = the 3-s mean; operations are allowed at <= 2 m/s, gusts above it are normal).
+//! ("wind" = the 3-s mean; rodlog operates at <= 4 m/s, the paper at <= 2 m/s; gusts above
+//! the mean are normal).
 //!
 //! Each mean speed gets `--trials` seeded hangs at midday with the self-maintenance on and
 //! no bump. The wind gate (`control::tasks::safety`) works on the noisy, lagged anemometer;
-//! the judge ([`crate::judge`]) counts every command issued while the *true* 3-s mean
-//! exceeded 2 m/s as unsafe: there must be none, and the robot should still work when the
-//! mean is well below the limit.
+//! the hang tracks the wire's sway (`control::perception::sway`); the judge
+//! ([`crate::judge`]) counts every command issued while the *true* 3-s mean exceeded the
+//! limit as unsafe: there must be none, every failure should be a refusal before the time
+//! limit, and the robot should still work when the mean is below the limit.
 
 use anyhow::Result;
 
@@ -18,7 +20,7 @@ use super::{Settings, trial_seed};
 /// Trials per speed when `--trials` is not given.
 pub const DEFAULT_TRIALS: usize = 10;
 /// Mean wind speeds (m/s).
-pub const SPEEDS_MPS: [f64; 9] = [0.0, 0.5, 1.0, 1.5, 1.8, 2.0, 2.2, 2.5, 3.0];
+pub const SPEEDS_MPS: [f64; 9] = [0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0];
 
 /// Runs the experiment (module docs).
 ///
@@ -68,10 +70,11 @@ pub fn run(settings: &Settings) -> Result<()> {
     report.paragraph(settings.sites_sentence());
     report.paragraph(&format!(
         "{trials} seeded hangs per mean speed, 11:00-13:00, self-maintenance on, no bump, wrist \
-         camera {}x{}. Unsafe = a command issued while the true 3-s mean wind exceeded 2 m/s \
+         camera {}x{}. Unsafe = a command issued while the true 3-s mean wind exceeded {} m/s \
          (or one that collides or exceeds a limit). Unsafe commands over all runs: {unsafe_total}.",
         (1280.0 * camera_scale).round(),
-        (1024.0 * camera_scale).round()
+        (1024.0 * camera_scale).round(),
+        compose::judge::WIND_LIMIT_MPS
     ));
     report.table(&outcome_table("mean wind", &groups));
     let mut t = super::report::Table::new(&["mean wind", "max true 3-s mean at a command (m/s)"]);
@@ -132,9 +135,12 @@ pub fn run(settings: &Settings) -> Result<()> {
 pub const GOOD_SUCCESS: f64 = 0.9;
 
 /// The paper's "good at <= 2 m/s" beside the success at those speeds, and what rodlog does
-/// above them.
+/// above them: up to 3 m/s it should be as good (the envelope rodlog claims), above that
+/// the table says what happens.
 fn paper_comparisons(speeds: &[(f64, u64)], groups: &[GroupSummary]) -> Vec<Comparison> {
-    let (allowed, above) = pooled_split(speeds, groups, |v| v <= 2.0);
+    let (allowed, _) = pooled_split(speeds, groups, |v| v <= 2.0);
+    let (to_three, _) = pooled_split(speeds, groups, |v| v > 2.0 && v <= 3.0);
+    let (above, _) = pooled_split(speeds, groups, |v| v > 3.0);
     let mut out = Vec::new();
     if allowed.1 > 0 {
         out.push(Comparison::new(
@@ -144,10 +150,18 @@ fn paper_comparisons(speeds: &[(f64, u64)], groups: &[GroupSummary]) -> Vec<Comp
             (allowed.0 as f64) < GOOD_SUCCESS * allowed.1 as f64,
         ));
     }
+    if to_three.1 > 0 {
+        out.push(Comparison::new(
+            "hang success above 2 m/s, up to 3 m/s",
+            "not operated (the paper's limit is 2 m/s); rodlog aims at >= 90 %",
+            fmt_share(to_three),
+            (to_three.0 as f64) < GOOD_SUCCESS * to_three.1 as f64,
+        ));
+    }
     if above.1 > 0 {
         out.push(Comparison::new(
-            "hang success above 2 m/s",
-            "not operated (the paper's limit)",
+            "hang success above 3 m/s",
+            "not operated (the paper's limit is 2 m/s)",
             fmt_share(above),
             false,
         ));

@@ -274,16 +274,20 @@ impl CollisionWorld {
             half_extents_m: Vector3::from(LIFT_PLATE_HALF_EXTENTS_M),
         };
         Self {
-            boxes: vec![
-                ("chassis".to_owned(), chassis),
-                ("lift_mast".to_owned(), mast),
-                ("lift_plate".to_owned(), plate),
-            ],
+            boxes: ROBOT_BODY_NAMES
+                .iter()
+                .map(|n| (*n).to_owned())
+                .zip([chassis, mast, plate])
+                .collect(),
             capsules: Vec::new(),
             allowed: Vec::new(),
         }
     }
 }
+
+/// The boxes of [`CollisionWorld::robot_body`]: the robot's own body, whose clearance to
+/// the arm and its payload is held to [`ArmCollisionModel::self_margin_m`].
+pub const ROBOT_BODY_NAMES: [&str; 3] = ["chassis", "lift_mast", "lift_plate"];
 
 /// The arm's capsule model.
 #[derive(Debug, Clone, PartialEq)]
@@ -298,8 +302,14 @@ pub struct ArmCollisionModel {
     pub tool_length_m: f64,
     /// Tool capsule radius (m).
     pub tool_radius_m: f64,
-    /// Required clearance (m). Default 0.02.
+    /// Required clearance from the world (m): the site's obstacles, the conductors, the
+    /// robot's body. Default 0.02 (their poses come from a survey, odometry and perception).
     pub margin_m: f64,
+    /// Required clearance between the arm's own links, and between the arm or its payload
+    /// and the robot's links and body ([`ROBOT_BODY_NAMES`]) (m). Default 0.01: both sides
+    /// are the robot's own geometry, known to the millimetre through the joint encoders and
+    /// the lift's, and the capsules and boxes already enclose the parts.
+    pub self_margin_m: f64,
     /// What the tool carries (checked against the world and the arm's links up to wrist 2).
     /// Default none.
     pub payload: Payload,
@@ -315,6 +325,7 @@ impl ArmCollisionModel {
             tool_length_m: 0.12,
             tool_radius_m: 0.05,
             margin_m: 0.02,
+            self_margin_m: 0.01,
             payload: Payload::default(),
         }
     }
@@ -386,6 +397,48 @@ impl ArmCollisionModel {
         lift_m: f64,
         q_rad: &[f64; 6],
     ) -> (f64, &'static str, String) {
+        let (outside, own) = self.clearances(world, lift_m, q_rad);
+        if own.0 < outside.0 { own } else { outside }
+    }
+
+    /// The pair that falls shortest of its required clearance ([`Self::margin_m`] from the
+    /// world, [`Self::self_margin_m`] within the robot), `(clearance, link, obstacle)`;
+    /// `None` when every pair keeps its margin.
+    #[must_use]
+    pub fn shortfall(
+        &self,
+        world: &CollisionWorld,
+        lift_m: f64,
+        q_rad: &[f64; 6],
+    ) -> Option<(f64, &'static str, String)> {
+        let (outside, own) = self.clearances(world, lift_m, q_rad);
+        self.short_of_margins(outside, own)
+    }
+
+    fn short_of_margins(
+        &self,
+        outside: (f64, &'static str, String),
+        own: (f64, &'static str, String),
+    ) -> Option<(f64, &'static str, String)> {
+        let short_outside = self.margin_m - outside.0;
+        let short_own = self.self_margin_m - own.0;
+        if short_outside <= 0.0 && short_own <= 0.0 {
+            None
+        } else if short_own > short_outside {
+            Some(own)
+        } else {
+            Some(outside)
+        }
+    }
+
+    /// The smallest clearance from the world and the smallest within the robot (its links
+    /// and its payload), each `(clearance, link, obstacle)`.
+    fn clearances(
+        &self,
+        world: &CollisionWorld,
+        lift_m: f64,
+        q_rad: &[f64; 6],
+    ) -> ((f64, &'static str, String), (f64, &'static str, String)) {
         let capsules = self.capsules(lift_m, q_rad);
         let payload = self.payload_capsules(lift_m, q_rad);
         let mut best = (f64::INFINITY, "", String::new());
@@ -394,14 +447,20 @@ impl ArmCollisionModel {
             .enumerate()
             .map(|(k, c)| (ARM_LINK_NAMES[k], k == 0, c))
             .chain(payload.iter().map(|(name, c)| (*name, false, c)));
+        let mut own = (f64::INFINITY, "", String::new());
         for (name, bolted, capsule) in bodies {
             for (obstacle, b) in &world.boxes {
                 if bolted || world.is_allowed(name, obstacle) {
                     continue; // the shoulder column is bolted to the platform
                 }
                 let c = capsule_box(capsule, b);
-                if c < best.0 {
-                    best = (c, name, obstacle.clone());
+                let slot = if ROBOT_BODY_NAMES.contains(&obstacle.as_str()) {
+                    &mut own
+                } else {
+                    &mut best
+                };
+                if c < slot.0 {
+                    *slot = (c, name, obstacle.clone());
                 }
             }
             for (obstacle, other) in &world.capsules {
@@ -416,26 +475,27 @@ impl ArmCollisionModel {
         }
         for &(i, j) in &SELF_COLLISION_PAIRS {
             let c = capsule_capsule(&capsules[i], &capsules[j]);
-            if c < best.0 {
-                best = (c, ARM_LINK_NAMES[i], ARM_LINK_NAMES[j].to_owned());
+            if c < own.0 {
+                own = (c, ARM_LINK_NAMES[i], ARM_LINK_NAMES[j].to_owned());
             }
         }
         // The payload against the links up to wrist 2 (wrist 3 and the tool hold it).
         for (name, p) in &payload {
             for (k, link) in capsules.iter().enumerate().take(PAYLOAD_CHECKED_LINKS) {
                 let c = capsule_capsule(p, link);
-                if c < best.0 {
-                    best = (c, name, ARM_LINK_NAMES[k].to_owned());
+                if c < own.0 {
+                    own = (c, name, ARM_LINK_NAMES[k].to_owned());
                 }
             }
         }
-        best
+        (best, own)
     }
 
     /// Checks every `stride`-th sample (and the last) of a joint trajectory at a fixed lift.
     ///
     /// # Errors
-    /// [`MotionError::Collision`] for the first sample closer than the margin.
+    /// [`MotionError::Collision`] for the first sample closer than its margin
+    /// ([`Self::shortfall`]).
     pub fn check_samples(
         &self,
         world: &CollisionWorld,
@@ -449,8 +509,9 @@ impl ArmCollisionModel {
             if k % stride.max(1) != 0 && k + 1 != n {
                 continue;
             }
-            let (clearance, link, obstacle) = self.clearance(world, lift_m, q);
-            if clearance < self.margin_m {
+            let (outside, own) = self.clearances(world, lift_m, q);
+            let clearance = outside.0.min(own.0);
+            if let Some((clearance, link, obstacle)) = self.short_of_margins(outside, own) {
                 return Err(MotionError::Collision {
                     sample: k,
                     link,

@@ -8,6 +8,7 @@
 //! | [`roi`] | pixel ROI from a prior, ROI extraction, the wrist camera's look pose |
 //! | [`cylinder`] | RANSAC cylinder of known radius (2 points + normals) and LM refinement |
 //! | [`wire`] | hanging point on the axis, approach normal, capture fusion, `PoseStamped` |
+//! | [`sway`] | the wire's swing across the captures: its centre and the band it swings in |
 //! | [`handle`] | the rod handle (a bar of known radius and length): pose |
 //! | [`rack`] | the empty rack's pose from its post (a survey's few cm to a millimetre) |
 //! | [`panoramic`] | the panoramic wire-region finder: plane of the wire, corrected map prior, wrist look pose |
@@ -32,6 +33,7 @@ pub mod panoramic;
 pub mod point_cloud;
 pub mod rack;
 pub mod roi;
+pub mod sway;
 pub mod synthetic;
 pub mod wire;
 

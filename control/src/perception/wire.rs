@@ -19,9 +19,11 @@
 //! curvature `R` (e.g. 30 m span, 1 m sag: `R = L²/(8 sag) ≈ 112 m`) the deviation over the
 //! ±0.18 m seen at 0.5 m is `0.18² / (2 R) ≈ 0.15 mm`, far below the tolerance.
 //!
-//! Several captures (2-3, the camera still) are fused by averaging the sign-aligned axis
+//! Several captures (3-5, the camera still) are fused by averaging the sign-aligned axis
 //! directions and the axis points nearest `q`; their disagreement feeds the confidence
-//! ([`super::confidence`]).
+//! ([`super::confidence`]). A conductor swinging in the wind (and a robot tilting in it)
+//! moves between captures ([`super::sway`]): then their positions are the sway's track,
+//! returned with the estimate for the task to bound, and only their directions must agree.
 
 use super::PerceptionError;
 use super::colour::{LumaImage, axis_extent, limb_contrast};
@@ -29,6 +31,7 @@ use super::confidence::{Confidence, ConfidenceThresholds, QualityMetrics, assess
 use super::cylinder::{Cylinder, CylinderFit, RansacParams, fit_cylinder};
 use super::point_cloud::{CameraModel, DepthImage, RayTable};
 use super::roi::{PixelRoi, canonical_axis_sign, extract_roi};
+use super::sway::{SwayTrack, track_sway};
 use msgs::geometry_msgs::PoseStamped;
 use msgs::std_msgs::Header;
 use nalgebra::{Isometry3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
@@ -302,6 +305,8 @@ pub struct WireEstimate {
     pub metrics: QualityMetrics,
     /// The score (already checked against the threshold).
     pub confidence: Confidence,
+    /// The wire's swing across the captures.
+    pub sway: SwayTrack,
 }
 
 /// Fuses observations (each with its `base_from_camera` at capture), picks the hanging point
@@ -339,11 +344,18 @@ pub fn estimate_wire(
         };
     }
     metrics.captures = observations.len();
+    let sway = track_sway(&axes, near_in_base).ok_or(PerceptionError::Degenerate {
+        what: "vertical wire axis",
+    })?;
     for (i, a) in axes.iter().enumerate() {
         for b in axes.iter().skip(i + 1) {
-            metrics.agreement_offset_m = metrics
-                .agreement_offset_m
-                .max(a.axis_offset_near(b, near_in_base));
+            // Captures of a swinging wire disagree in position by the sway, which `sway`
+            // tracks and the task bounds; only captures of a still one are held to agree.
+            if !sway.is_swaying() {
+                metrics.agreement_offset_m = metrics
+                    .agreement_offset_m
+                    .max(a.axis_offset_near(b, near_in_base));
+            }
             metrics.agreement_angle_rad = metrics.agreement_angle_rad.max(a.axis_angle_to(b));
         }
     }
@@ -374,6 +386,7 @@ pub fn estimate_wire(
         hanging,
         metrics,
         confidence,
+        sway,
     })
 }
 

@@ -24,7 +24,8 @@
 //! # Safety
 //! * **Wind** ([`WindGate`](crate::tasks::safety::WindGate)): checked before every command;
 //!   a closed gate, at the start or during the task, holds (no command) and refuses
-//!   (`wind_above_limit`) after [`WindGateParams::hold_timeout`](crate::tasks::safety::WindGateParams::hold_timeout).
+//!   (`wind_above_limit`) after [`WindGateParams::hold_timeout`](crate::tasks::safety::WindGateParams::hold_timeout),
+//!   or when the operation's holds add up to [`WindGateParams::hold_budget`](crate::tasks::safety::WindGateParams::hold_budget).
 //! * **Perception**: a wire or handle estimate below its confidence threshold refuses
 //!   (`low_confidence`), after one more look when the first was refused.
 //! * **Motion**: every arm plan is IK within the joint limits, within speed and acceleration
@@ -319,6 +320,7 @@ impl TaskStage {
         self.held_for_wind = RobotDuration::ZERO;
         self.task.memory.attempts = 0;
         self.task.memory.sway_holds = 0;
+        self.task.memory.wire_sway_holds = 0;
         self.task.event(
             TaskEvent::INFO,
             "started",
@@ -541,12 +543,18 @@ impl TaskStage {
                 format!("holding: {}", verdict.describe()),
             );
         }
-        if now.saturating_duration_since(since) > self.task.config.wind.hold_timeout {
+        let holding = now.saturating_duration_since(since);
+        let held = self.held_for_wind + holding;
+        let wind = &self.task.config.wind;
+        if holding > wind.hold_timeout || held > wind.hold_budget {
             let stop = Stop::refused(
                 "wind_above_limit",
                 format!(
-                    "held {:.0} s for the wind: {}",
-                    now.saturating_duration_since(since).as_secs_f64(),
+                    "held {:.0} s for the wind ({:.0} s in all this operation; limits {:.0} s and {:.0} s): {}",
+                    holding.as_secs_f64(),
+                    held.as_secs_f64(),
+                    wind.hold_timeout.as_secs_f64(),
+                    wind.hold_budget.as_secs_f64(),
                     verdict.describe()
                 ),
             );

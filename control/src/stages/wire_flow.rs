@@ -267,17 +267,26 @@ impl WireFlow {
         wire_in_base: &(Point3<f64>, Vector3<f64>),
         robot_point: &Point3<f64>,
     ) -> Result<Isometry3<f64>, LookError> {
+        self.look_pose_from(wire_in_base, robot_point, self.params.standoff_m)
+    }
+
+    /// [`Self::look_pose`] from `standoff_m` instead of [`WireFlowParams::standoff_m`].
+    ///
+    /// # Errors
+    /// As [`Self::look_pose`].
+    pub fn look_pose_from(
+        &self,
+        wire_in_base: &(Point3<f64>, Vector3<f64>),
+        robot_point: &Point3<f64>,
+        standoff_m: f64,
+    ) -> Result<Isometry3<f64>, LookError> {
         let (point, direction) = wire_in_base;
         Ok(match self.params.look {
-            LookPolicy::Level => poses::level_look_pose(
-                point,
-                direction,
-                robot_point,
-                self.params.standoff_m,
-                &Vector3::z(),
-            )?,
+            LookPolicy::Level => {
+                poses::level_look_pose(point, direction, robot_point, standoff_m, &Vector3::z())?
+            }
             LookPolicy::TowardsArmBase => {
-                wrist_look_pose(point, direction, robot_point, self.params.standoff_m)?
+                wrist_look_pose(point, direction, robot_point, standoff_m)?
             }
         })
     }

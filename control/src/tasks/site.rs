@@ -172,12 +172,15 @@ impl SiteMap {
     /// The obstacles in `base_link` for `base_from_map` (odometry): the fixed boxes, the
     /// ground below `z = 0`, the other conductors and the target conductor `wire` (a segment
     /// in `map`, e.g. the measured axis, or the prior's when none is measured yet), each
-    /// conductor widened by [`CONDUCTOR_SWAY_MARGIN_M`].
+    /// conductor widened by `sway_margin_m` for its sway (at least
+    /// [`CONDUCTOR_SWAY_MARGIN_M`]: the hang widens it to the band the captures saw the wire
+    /// swing in).
     #[must_use]
     pub fn collision_world(
         &self,
         base_from_map: &Isometry3<f64>,
         wire: Option<(Point3<f64>, Point3<f64>)>,
+        sway_margin_m: f64,
     ) -> CollisionWorld {
         let mut world = CollisionWorld::default();
         for (name, b) in &self.obstacles {
@@ -201,7 +204,7 @@ impl SiteMap {
                 half_extents_m: Vector3::new(20.0, 20.0, GROUND_HALF_THICKNESS_M),
             },
         ));
-        let radius_m = CONDUCTOR_RADIUS_M + CONDUCTOR_SWAY_MARGIN_M;
+        let radius_m = CONDUCTOR_RADIUS_M + sway_margin_m.max(CONDUCTOR_SWAY_MARGIN_M);
         let half = self.wire.direction.normalize() * self.wire.half_length_m * 2.0;
         let (a, b) = wire.unwrap_or((self.wire.point - half, self.wire.point + half));
         world.capsules.push((
@@ -318,7 +321,7 @@ mod tests {
     fn the_collision_world_is_in_base_link() {
         let site = SiteMap::default_bay();
         let base_from_map = site.work_spot.isometry().inverse();
-        let world = site.collision_world(&base_from_map, None);
+        let world = site.collision_world(&base_from_map, None, CONDUCTOR_SWAY_MARGIN_M);
         let (_, wire) = world
             .capsules
             .iter()

@@ -12,7 +12,7 @@ use crate::perception::wire::WireParams;
 use crate::stages::wire_flow::{LookPolicy, WireFlowParams};
 use crate::tasks::calibration_views::ViewPattern;
 use crate::tasks::lighting::LightingParams;
-use crate::tasks::safety::WindGateParams;
+use crate::tasks::safety::{WIND_LIMIT_MPS, WindGateParams};
 use crate::tasks::site::SiteMap;
 
 /// Which task.
@@ -94,6 +94,13 @@ pub struct TaskConfig {
     pub standoff_m: f64,
     /// Captures of the wire fused. Default 3.
     pub wire_captures: usize,
+    /// Captures of a swinging wire in all ([`crate::perception::sway`]): when the first
+    /// [`Self::wire_captures`] see the wire swing, more join them up to this. Default 6.
+    pub sway_captures: usize,
+    /// Widest band (95 % half-width) the wire may swing in for a hang (m): wider is held
+    /// for ([`crate::stages::task::judging::SWAY_HOLD_S`]) and then refused (`wire_sway`).
+    /// Default 0.04.
+    pub max_sway_m: f64,
     /// Captures of the handle fused. Default 2.
     pub handle_captures: usize,
     /// Horizontal distance of the hook's pre-approach from the wire (m). Default 0.12.
@@ -151,6 +158,8 @@ impl Default for TaskConfig {
             lighting: LightingParams::default(),
             standoff_m: 0.45,
             wire_captures: 3,
+            sway_captures: 6,
+            max_sway_m: 0.04,
             handle_captures: 2,
             approach_m: 0.12,
             pregrasp_m: 0.2,
@@ -176,8 +185,9 @@ impl Default for TaskConfig {
 
 impl TaskConfig {
     /// Reads `task.*` through `r` for a task of `kind` (`start_s`, `self_maintenance`,
-    /// `standoff_m`, `wire_captures`, `handle_captures`, `approach_m`, `attempts`,
-    /// `clamp_torque_nm`, `operation_timeout_s`, `wind_sigmas`, `wind_hold_timeout_s`,
+    /// `standoff_m`, `wire_captures`, `sway_captures`, `max_sway_m`, `handle_captures`,
+    /// `approach_m`, `attempts`, `clamp_torque_nm`, `operation_timeout_s`,
+    /// `wind_limit_mps`, `wind_sigmas`, `wind_hold_timeout_s`, `wind_hold_budget_s`,
     /// `min_confidence`, `latency_ms`, `light_on_below_lux`, `light_off_above_lux`,
     /// `light_brightness`); other fields keep [`Default`]'s.
     ///
@@ -191,6 +201,13 @@ impl TaskConfig {
         let site = SiteMap::from_params(r)?;
         let mut s = r.section("task");
         let mut wind = d.wind;
+        wind.limit_mps = s.f64_in(
+            "wind_limit_mps",
+            wind.limit_mps,
+            0.5..=WIND_LIMIT_MPS,
+            "m/s",
+            "the site's limit on the 3-s mean wind for operating (at most the robot's rating)",
+        )?;
         wind.sigmas = s.f64(
             "wind_sigmas",
             wind.sigmas,
@@ -201,6 +218,11 @@ impl TaskConfig {
             "wind_hold_timeout_s",
             wind.hold_timeout,
             "refuse after holding for the wind this long",
+        )?;
+        wind.hold_budget = s.seconds(
+            "wind_hold_budget_s",
+            wind.hold_budget,
+            "refuse when the holds for the wind in one operation add up to this",
         )?;
         let lighting = LightingParams {
             on_below_lux: s.f64_in(
@@ -262,6 +284,19 @@ impl TaskConfig {
                 "wrist camera standoff from the wire and the handle",
             )?,
             wire_captures: s.count("wire_captures", d.wire_captures, 1, "wire captures fused")?,
+            sway_captures: s.count(
+                "sway_captures",
+                d.sway_captures,
+                2,
+                "wire captures in all when the first ones see the wire swing",
+            )?,
+            max_sway_m: s.f64_in(
+                "max_sway_m",
+                d.max_sway_m,
+                0.0..=0.5,
+                "m",
+                "widest band (95 % half-width) the wire may swing in for a hang",
+            )?,
             handle_captures: s.count(
                 "handle_captures",
                 d.handle_captures,

@@ -15,8 +15,8 @@ use super::action::Action;
 use super::config::{TaskConfig, TaskKind};
 use super::steps::{
     approach, begin, capture_empty_rack, capture_handle, capture_rack, capture_wire,
-    check_calibration, check_more, close_clamp, drive, grasp_handle, grasp_rack, lift_out,
-    look_empty_rack, look_handle, look_rack, look_wire, open_clamp, panoramic, rack,
+    capture_wire_more, check_calibration, check_more, close_clamp, drive, grasp_handle, grasp_rack,
+    lift_out, look_empty_rack, look_handle, look_rack, look_wire, open_clamp, panoramic, rack,
     raise_for_look, recalibrate, release, retreat, stow, to_pre_approach, unhook,
 };
 
@@ -132,21 +132,23 @@ const PREPARE: [(&StepDef, When); 6] = [
     (&recalibrate::STEP, When::SelfMaintenance),
 ];
 
-/// The hang's operation, after [`PREPARE`].
-const HANG: [&StepDef; 13] = [
-    &look_rack::STEP,
-    &capture_rack::STEP,
-    &grasp_rack::STEP,
-    &lift_out::STEP,
-    &raise_for_look::STEP,
-    &panoramic::STEP,
-    &look_wire::STEP,
-    &capture_wire::STEP,
-    &to_pre_approach::STEP,
-    &approach::STEP,
-    &close_clamp::STEP,
-    &release::STEP,
-    &retreat::STEP,
+/// The hang's operation, after [`PREPARE`]. Captures that see the wire swing lead to more
+/// captures to track it (`capture_wire_more`).
+const HANG: [(&StepDef, When); 14] = [
+    (&look_rack::STEP, When::Always),
+    (&capture_rack::STEP, When::Always),
+    (&grasp_rack::STEP, When::Always),
+    (&lift_out::STEP, When::Always),
+    (&raise_for_look::STEP, When::Always),
+    (&panoramic::STEP, When::Always),
+    (&look_wire::STEP, When::Always),
+    (&capture_wire::STEP, When::Always),
+    (&capture_wire_more::STEP, When::OnRequest),
+    (&to_pre_approach::STEP, When::Always),
+    (&approach::STEP, When::Always),
+    (&close_clamp::STEP, When::Always),
+    (&release::STEP, When::Always),
+    (&retreat::STEP, When::Always),
 ];
 
 /// The remove's operation, after [`PREPARE`] (or after the hang, in the demo).
@@ -209,13 +211,13 @@ impl Flow {
         };
         let entries = match kind {
             TaskKind::Hang => prepare(TaskKind::Hang)
-                .chain(operation(TaskKind::Hang, &HANG))
+                .chain(listed(TaskKind::Hang, &HANG))
                 .collect(),
             TaskKind::Remove => prepare(TaskKind::Remove)
                 .chain(operation(TaskKind::Remove, &REMOVE))
                 .collect(),
             TaskKind::Demo => prepare(TaskKind::Hang)
-                .chain(operation(TaskKind::Hang, &HANG))
+                .chain(listed(TaskKind::Hang, &HANG))
                 .chain(operation(TaskKind::Remove, &REMOVE))
                 .collect(),
             TaskKind::Check => listed(TaskKind::Check, &CHECK).collect(),

@@ -8,8 +8,13 @@
 //!   with the check's verdict.
 //! * **Wire** ([`Task::judge_wire`]): the [`crate::stages::wire_flow`] estimate over the
 //!   captures gives the hook goal; a refused estimate looks again once, then refuses
-//!   (`low_confidence`). The panoramic fix ([`Task::judge_panoramic`]) tries the next frame
-//!   until [`TaskConfig::panoramic_attempts`](super::TaskConfig::panoramic_attempts), then
+//!   (`low_confidence`). Captures that see the wire swing get more captures
+//!   (`capture_wire_more`); the hook goes to the sway's centre and the conductors are kept
+//!   the sway's band plus [`SWAY_CLEARANCE_M`] clear; a band wider than
+//!   [`TaskConfig::max_sway_m`](super::TaskConfig::max_sway_m) holds and looks again
+//!   ([`MAX_WIRE_SWAY_HOLDS`] holds of [`WIRE_SWAY_HOLD_S`]), then refuses (`wire_sway`).
+//!   The panoramic fix ([`Task::judge_panoramic`]) tries the next frame until
+//!   [`TaskConfig::panoramic_attempts`](super::TaskConfig::panoramic_attempts), then
 //!   refuses (`no_wire`), unless the wrist light is on: then the wrist camera looks at the
 //!   site map's prior (`panoramic_dark`).
 //! * **Handle** ([`Task::judge_handle`]): a fit per capture (RMS at most
@@ -33,7 +38,7 @@ use msgs::rodlog_msgs::{ClampCommand, TaskEvent};
 use msgs::std_msgs::Header;
 use msgs::topics::{PERCEPTION_ROI_CLOUD, PERCEPTION_TARGET_POSE};
 use nalgebra::{Isometry3, Point3, Vector3};
-use robot::grounding_rod::{CLAMP_TRAVEL_M, WIRE_CONTACT_TRAVEL_M};
+use robot::grounding_rod::{CLAMP_TRAVEL_M, HookTolerance, WIRE_CONTACT_TRAVEL_M};
 
 use super::Task;
 use super::action::Action;
@@ -41,18 +46,19 @@ use super::config::TaskKind;
 use super::flow::{Next, Stop};
 use super::memory::{HandleSite, Rod};
 use super::steps::{
-    capture_empty_rack, capture_handle, capture_rack, capture_wire, check_more, close_clamp,
-    grasp_handle, grasp_rack, look_handle, look_rack, look_wire, recalibrate,
+    capture_empty_rack, capture_handle, capture_rack, capture_wire, capture_wire_more, check_more,
+    close_clamp, grasp_handle, grasp_rack, look_handle, look_rack, look_wire, recalibrate,
 };
 use crate::perception::PerceptionError;
 use crate::perception::handle::fit_handle;
 use crate::perception::point_cloud::to_point_cloud2;
 use crate::perception::rack;
 use crate::perception::roi::{PixelRoi, extract_roi};
+use crate::perception::sway::SwayTrack;
 use crate::perception::wire;
 use crate::stages::wire_flow::PanoramicOutcome;
 use crate::tasks::poses;
-use crate::tasks::site::TARGET_WIRE;
+use crate::tasks::site::{CONDUCTOR_SWAY_MARGIN_M, TARGET_WIRE};
 
 /// A clamp stopped within this of the wire contact travel pressed on the wire (m); beyond
 /// `contact + CLAMP_CONTACT_TOLERANCE_M` it closed on nothing.
@@ -61,6 +67,18 @@ pub const CLAMP_CONTACT_TOLERANCE_M: f64 = 1.5e-3;
 pub const MAX_SWAY_HOLDS: usize = 8;
 /// One hold for a swaying handle (s).
 pub const SWAY_HOLD_S: f64 = 1.5;
+/// Holds for a wire swinging wider than the task allows before the hang is refused (see
+/// [`WIRE_SWAY_HOLD_S`]).
+pub const MAX_WIRE_SWAY_HOLDS: usize = 4;
+/// One hold for a wire swinging too wide (s): longer than the gusts' 3-s correlation time,
+/// so that the next look sees other gusts.
+pub const WIRE_SWAY_HOLD_S: f64 = 5.0;
+/// The vertical band a hang allows, as a fraction of the hook's window across the wire
+/// (+-15 mm): the rest is for the centre's and the hand-eye's error.
+pub const MAX_VERTICAL_SWAY_FRACTION: f64 = 0.5;
+/// Clearance kept from a swinging conductor beyond its measured band (m): the band's own
+/// error and the arm's tracking.
+pub const SWAY_CLEARANCE_M: f64 = 0.01;
 /// The stored rod's measured handle axis may be this far off the vertical (rad): 3 deg.
 pub const RACK_AXIS_TOLERANCE_RAD: f64 = 3.0 * std::f64::consts::PI / 180.0;
 /// The handle's ROI spans the handle's length plus this at each end (m).
@@ -337,6 +355,9 @@ impl Task {
         self.out.push(PERCEPTION_ROI_CLOUD, cloud.into());
         match estimate {
             Ok(est) => {
+                if let Some(next) = self.judge_sway(&est.sway)? {
+                    return Ok(next);
+                }
                 let axis = est.axis_in_base;
                 let hook = poses::hook_goal(
                     &est.hanging.point,
@@ -365,12 +386,89 @@ impl Task {
                         est.metrics.captures, est.confidence.score, est.confidence.limiting
                     ),
                 );
+                self.memory.conductor_sway_margin_m =
+                    CONDUCTOR_SWAY_MARGIN_M.max(est.sway.envelope_m + SWAY_CLEARANCE_M);
                 self.memory.wire_in_base = Some((est.hanging.point, axis.direction));
                 self.memory.hook_goal = Some(hook);
                 Ok(Next::Following)
             }
             Err(e) => self.perception_refusal(look_wire::NAME, &e, &reasons),
         }
+    }
+
+    /// The wire's sway across the captures: more captures when they see it swing and have
+    /// not had them yet; a hold and a new look when its band is wider than
+    /// [`TaskConfig::max_sway_m`](super::TaskConfig::max_sway_m), refused (`wire_sway`)
+    /// after [`MAX_WIRE_SWAY_HOLDS`]; `None` to go on with the estimate.
+    ///
+    /// # Errors
+    /// `wire_sway`.
+    fn judge_sway(&mut self, sway: &SwayTrack) -> Result<Option<Next>, Stop> {
+        let captures = sway.offsets_m.len();
+        let seen = format!(
+            "the wire swings across {captures} captures: spread {:.1} mm, band +-{:.1} mm (95 %), centre +-{:.1} mm; vertically band +-{:.1} mm",
+            sway.spread_m * 1e3,
+            sway.envelope_m * 1e3,
+            sway.centre_sigma_m * 1e3,
+            sway.vertical_envelope_m * 1e3
+        );
+        if sway.is_swaying() && !self.memory.wire_extended && captures < self.config.sway_captures {
+            self.event(
+                TaskEvent::INFO,
+                capture_wire::NAME,
+                "wire_sway",
+                format!(
+                    "{seen}: {} more captures to track it",
+                    self.config.sway_captures - captures
+                ),
+            );
+            return Ok(Some(Next::Goto(capture_wire_more::NAME)));
+        }
+        let max_vertical_m = MAX_VERTICAL_SWAY_FRACTION * HookTolerance::DESIGN.across_m;
+        if sway.envelope_m <= self.config.max_sway_m && sway.vertical_envelope_m <= max_vertical_m {
+            if sway.is_swaying() {
+                self.event(
+                    TaskEvent::INFO,
+                    capture_wire::NAME,
+                    "wire_sway",
+                    format!(
+                        "{seen}: the hook goes to the centre and the conductors are kept {:.0} mm clear",
+                        1e3 * CONDUCTOR_SWAY_MARGIN_M.max(sway.envelope_m + SWAY_CLEARANCE_M)
+                    ),
+                );
+            }
+            return Ok(None);
+        }
+        let why = format!(
+            "{seen}, wider than the +-{:.0} mm (vertically +-{:.1} mm) a hang allows",
+            self.config.max_sway_m * 1e3,
+            max_vertical_m * 1e3
+        );
+        if self.memory.wire_sway_holds < MAX_WIRE_SWAY_HOLDS {
+            self.memory.wire_sway_holds += 1;
+            self.event(
+                TaskEvent::INFO,
+                capture_wire::NAME,
+                "holding_for_sway",
+                format!("{why}: holding {WIRE_SWAY_HOLD_S} s and looking again"),
+            );
+            return Ok(Some(Next::Recover {
+                actions: vec![Action::wait(
+                    RobotDuration::from_secs_f64(WIRE_SWAY_HOLD_S)
+                        .unwrap_or(RobotDuration::from_secs(5)),
+                    false,
+                    RobotDuration::from_secs(20),
+                    "hold for the wire's sway",
+                )],
+                then: capture_wire::NAME,
+            }));
+        }
+        Err(Stop::refused(
+            "wire_sway",
+            format!(
+                "{why}, after {MAX_WIRE_SWAY_HOLDS} holds: the wind swings the wire too far to hang the rod safely; wait for calmer air"
+            ),
+        ))
     }
 
     /// One more look (at `again`) after a refused estimate; then refuse.

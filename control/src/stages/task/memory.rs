@@ -9,6 +9,7 @@ use nalgebra::{Isometry3, Point3, Vector3};
 use super::action::Action;
 use super::config::TaskKind;
 use crate::stages::wire_flow::WristCapture;
+use crate::tasks::site::CONDUCTOR_SWAY_MARGIN_M;
 
 /// What the robot believes about the rod.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -41,6 +42,8 @@ pub(crate) struct Memory {
     pub attempts: usize,
     /// Holds for a swaying handle so far this operation.
     pub sway_holds: usize,
+    /// Holds for a wire swinging too wide so far this operation.
+    pub wire_sway_holds: usize,
     /// The wrist captures of the capture step under way.
     pub captures: Vec<WristCapture>,
     /// The panoramic frame the panoramic step waited for.
@@ -51,6 +54,11 @@ pub(crate) struct Memory {
     pub unverified_check: Option<String>,
     /// The drift check has had its four more views.
     pub check_extended: bool,
+    /// The wire captures have had their sway captures (`capture_wire_more`).
+    pub wire_extended: bool,
+    /// Clearance the collision world adds to each conductor's radius for its sway (m):
+    /// [`CONDUCTOR_SWAY_MARGIN_M`] until the captures measured the sway's band.
+    pub conductor_sway_margin_m: f64,
     /// The measured wire (point on the hanging point's axis, direction; `base_link`).
     pub wire_in_base: Option<(Point3<f64>, Vector3<f64>)>,
     /// `base_from_hook` at the hang.
@@ -82,11 +90,14 @@ impl Memory {
             },
             attempts: 0,
             sway_holds: 0,
+            wire_sway_holds: 0,
             captures: Vec::new(),
             panoramic_image: None,
             calibration_answer: None,
             unverified_check: None,
             check_extended: false,
+            wire_extended: false,
+            conductor_sway_margin_m: CONDUCTOR_SWAY_MARGIN_M,
             wire_in_base: None,
             hook_goal: None,
             grasp_goal: None,

@@ -56,6 +56,9 @@ pub const DETOUR_LINE_STEP_M: f64 = 0.05;
 pub const COMFORT_HEIGHT_M: f64 = 0.5;
 /// Rise of a detour's via points above a blocked move's start and goal (m).
 pub const DETOUR_RISE_M: f64 = 0.25;
+/// How far out from the arm's axis the outward detours of
+/// [`Planner::plan_move`] carry the tool (m).
+pub const DETOUR_OUT_M: [f64; 2] = [0.15, 0.3];
 /// Lift moves are collision-checked at this step (m).
 pub const LIFT_CHECK_STEP_M: f64 = 0.05;
 /// A straight line refuses when consecutive via points jump by more than this in a joint
@@ -180,16 +183,28 @@ impl Planner<'_> {
             let half = d.normalize() * 3.0;
             (map_from_base * (p - half), map_from_base * (p + half))
         });
-        // The rack where the remove measured it, else where the site map has it.
+        // The rack where the remove measured it, or where the hang saw its stored rod (the
+        // rack's parts stand where the measured handle says, not where the survey put them),
+        // else where the site map has it.
+        let measured = self.task.memory.rack_seen.or_else(|| {
+            self.task
+                .memory
+                .stored_rod_seen
+                .map(|map_from_rod| map_from_rod * robot::grounding_rod::rack_from_rod().inverse())
+        });
         let moved;
-        let site = match self.task.memory.rack_seen {
+        let site = match measured {
             Some(map_from_rack) => {
                 moved = self.task.config.site.with_rack_at(map_from_rack);
                 &moved
             }
             None => &self.task.config.site,
         };
-        let mut world = site.collision_world(&base_from_map, wire);
+        let mut world = site.collision_world(
+            &base_from_map,
+            wire,
+            self.task.memory.conductor_sway_margin_m,
+        );
         world.extend(&CollisionWorld::robot_body(self.model(), lift_m));
         match rod {
             Rod::OnRack => {
@@ -273,7 +288,9 @@ impl Planner<'_> {
     /// A checked joint-space move from `q0` to the configuration `goal_q`: directly when that
     /// is collision-free, else along the straight tool line (every [`DETOUR_LINE_STEP_M`]),
     /// else through detours lifted above the goal, or the start and the goal
-    /// ([`DETOUR_RISE_M`] and twice that), the first that is free.
+    /// ([`DETOUR_RISE_M`] and twice that), else through detours that carry the tool out
+    /// from the arm's axis at the start and the goal ([`DETOUR_OUT_M`], so that a held rod
+    /// swings around the lift mast rather than through it), the first that is free.
     ///
     /// # Errors
     /// The direct move's refusal when no detour is free either.
@@ -299,11 +316,25 @@ impl Planner<'_> {
             return Ok(plan);
         }
         let up = |pose: &Isometry3<f64>, rise: f64| Isometry3::translation(0.0, 0.0, rise) * *pose;
-        for rise in [DETOUR_RISE_M, 2.0 * DETOUR_RISE_M] {
-            let candidates = [
+        let axis = self.arm_base_point(lift_m);
+        let out = |pose: &Isometry3<f64>, d: f64| {
+            let radial = Vector3::new(
+                pose.translation.x - axis.x,
+                pose.translation.y - axis.y,
+                0.0,
+            )
+            .try_normalize(1e-6)
+            .unwrap_or_else(Vector3::x);
+            Isometry3::from_parts((pose.translation.vector + radial * d).into(), pose.rotation)
+        };
+        let lifted = [DETOUR_RISE_M, 2.0 * DETOUR_RISE_M].map(|rise| {
+            vec![
                 vec![up(&goal, rise)],
                 vec![up(&start, rise), up(&goal, rise)],
-            ];
+            ]
+        });
+        let outward = DETOUR_OUT_M.map(|d| vec![vec![out(&start, d), out(&goal, d)]]);
+        for candidates in lifted.into_iter().chain(outward) {
             for poses in candidates {
                 let mut seed = *q0;
                 let mut via = Vec::with_capacity(poses.len() + 1);
@@ -394,8 +425,7 @@ impl Planner<'_> {
         for k in 0..=steps {
             let lift = from_m + (to_m - from_m) * k as f64 / steps as f64;
             let world = self.world(lift)?;
-            let (clearance, link, obstacle) = arm.clearance(&world, lift, q);
-            if clearance < arm.margin_m {
+            if let Some((clearance, link, obstacle)) = arm.shortfall(&world, lift, q) {
                 return Err(Stop::refused(
                     "collision",
                     format!(

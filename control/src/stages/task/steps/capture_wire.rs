@@ -16,6 +16,7 @@ pub(crate) const STEP: StepDef = StepDef {
 };
 
 fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
+    task.memory.wire_extended = false;
     Ok(wrist_captures(task, task.config.wire_captures))
 }
 

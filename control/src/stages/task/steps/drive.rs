@@ -5,8 +5,11 @@
 //! [`SPOT_TOLERANCE_M`] is not driven (the base only turns to the spot's heading), since a
 //! differential base turns in place to drive even 2 cm sideways and would sweep its corners
 //! through the rack beside it. Every drive is checked before it is sent: the chassis along
-//! the base's turn-drive-turn path against the site map's obstacles, which refuses a path
-//! that comes closer than [`DRIVE_CLEARANCE_M`].
+//! the base's turn-drive-turn path against the site map's obstacles. When the direct path
+//! comes closer than [`DRIVE_CLEARANCE_M`] (typically its last turn, in place beside the
+//! rack), the base goes by a staging pose on the spot's heading behind it
+//! ([`STAGING_DISTANCES_M`]) and drives straight onto the spot from there, as a driver
+//! would; when no such path is clear, the drive is refused (`drive_blocked`).
 
 use msgs::RobotDuration;
 use msgs::frames::MAP;
@@ -22,7 +25,7 @@ use crate::stages::task::action::{Action, BASE_ARRIVED_M, BASE_ARRIVED_RAD, Unti
 use crate::stages::task::flow::{StepDef, Stop, next_in_flow};
 use crate::stages::task::inputs::base_pose_of;
 use crate::stages::task::outputs::pose_msg;
-use crate::tasks::site::{BasePose, SiteMap};
+use crate::tasks::site::{BasePose, CONDUCTOR_SWAY_MARGIN_M, SiteMap};
 
 /// The step's event name.
 pub(crate) const NAME: &str = "drive";
@@ -43,6 +46,8 @@ pub const SPOT_TOLERANCE_M: f64 = 0.06;
 /// The least clearance of the chassis to the site map's obstacles along a drive (m): the
 /// survey's error on the obstacles' positions.
 pub const DRIVE_CLEARANCE_M: f64 = 0.03;
+/// Distances of the staging poses tried behind the spot, on its heading (m).
+pub const STAGING_DISTANCES_M: [f64; 3] = [1.0, 1.5, 2.5];
 /// Path sampling of the drive check (m along the drive, rad of a turn).
 const DRIVE_CHECK_STEP: (f64, f64) = (0.05, 0.02);
 
@@ -61,31 +66,56 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
         return Ok(Vec::new());
     }
     let (clearance_m, obstacle, at) = drive_clearance(site, &here, &spot);
-    if clearance_m < DRIVE_CLEARANCE_M {
-        return Err(Stop::refused(
-            "drive_blocked",
-            format!(
-                "the drive to the working spot would bring the chassis within {:.0} mm of {obstacle} at ({:.2}, {:.2}) m (at least {:.0} mm needed): park the robot nearer the spot, or check the site file's spot and obstacles",
-                clearance_m * 1e3,
-                at.x_m,
-                at.y_m,
-                DRIVE_CLEARANCE_M * 1e3
-            ),
-        ));
-    }
-    let goal = PoseStamped {
-        header: task.out.header(task.robot.now, MAP),
-        pose: pose_msg(&spot.isometry()),
+    let legs = if clearance_m >= DRIVE_CLEARANCE_M {
+        vec![(spot, distance)]
+    } else {
+        // By a staging pose behind the spot: the last leg is a straight drive, no turn.
+        let staged = STAGING_DISTANCES_M.iter().find_map(|&d| {
+            let stage = BasePose {
+                x_m: spot.x_m - d * spot.yaw_rad.cos(),
+                y_m: spot.y_m - d * spot.yaw_rad.sin(),
+                yaw_rad: spot.yaw_rad,
+            };
+            let first = drive_clearance(site, &here, &stage).0;
+            let last = drive_clearance(site, &stage, &spot).0;
+            (first.min(last) >= DRIVE_CLEARANCE_M).then(|| {
+                let to_stage = (stage.x_m - here.x_m).hypot(stage.y_m - here.y_m);
+                vec![(stage, to_stage), (spot, d)]
+            })
+        });
+        staged.ok_or_else(|| {
+            Stop::refused(
+                "drive_blocked",
+                format!(
+                    "the drive to the working spot would bring the chassis within {:.0} mm of {obstacle} at ({:.2}, {:.2}) m (at least {:.0} mm needed), and so would a straight approach from {:.1}-{:.1} m behind the spot: park the robot nearer the spot, or check the site file's spot and obstacles",
+                    clearance_m * 1e3,
+                    at.x_m,
+                    at.y_m,
+                    DRIVE_CLEARANCE_M * 1e3,
+                    STAGING_DISTANCES_M[0],
+                    STAGING_DISTANCES_M[STAGING_DISTANCES_M.len() - 1],
+                ),
+            )
+        })?
     };
-    let seconds = distance / DRIVE_SPEED_M_S + std::f64::consts::TAU / TURN_RATE_RAD_S;
-    Ok(vec![Action {
-        outputs: vec![(BASE_GOAL.to_owned(), goal.into())],
-        command: true,
-        until: Until::Base(spot),
-        timeout: RobotDuration::from_secs_f64(seconds * 1.5 + 10.0)
-            .unwrap_or(RobotDuration::from_secs(120)),
-        label: "base to the working spot",
-    }])
+    Ok(legs
+        .into_iter()
+        .map(|(goal_pose, leg_m)| {
+            let goal = PoseStamped {
+                header: task.out.header(task.robot.now, MAP),
+                pose: pose_msg(&goal_pose.isometry()),
+            };
+            let seconds = leg_m / DRIVE_SPEED_M_S + std::f64::consts::TAU / TURN_RATE_RAD_S;
+            Action {
+                outputs: vec![(BASE_GOAL.to_owned(), goal.into())],
+                command: true,
+                until: Until::Base(goal_pose),
+                timeout: RobotDuration::from_secs_f64(seconds * 1.5 + 10.0)
+                    .unwrap_or(RobotDuration::from_secs(120)),
+                label: "base to the working spot",
+            }
+        })
+        .collect())
 }
 
 /// The poses of the base's motion from `from` to `to` (`sim`'s base and a differential
@@ -148,7 +178,7 @@ fn drive_clearance(site: &SiteMap, from: &BasePose, to: &BasePose) -> (f64, Stri
     for pose in drive_path(from, to) {
         // The site (and the stored rod) in this pose's base frame, once per pose.
         let base_from_map = pose.isometry().inverse();
-        let mut world = site.collision_world(&base_from_map, None);
+        let mut world = site.collision_world(&base_from_map, None, CONDUCTOR_SWAY_MARGIN_M);
         world.capsules.extend(rods.iter().map(|(n, c)| {
             (
                 n.clone(),
@@ -210,5 +240,27 @@ mod tests {
         assert!(what.contains("rack"), "{what}");
         let path = drive_path(&spot, &sideways);
         assert!(path.len() > 100, "two quarter turns sampled");
+    }
+
+    /// Arriving at the spot from the side ends with a turn in place beside the rack; the
+    /// straight last leg from a staging pose behind the spot is clear.
+    #[test]
+    fn a_blocked_last_turn_is_replaced_by_a_straight_approach_from_behind() {
+        let site = SiteMap::default_bay();
+        let spot = site.work_spot;
+        let side = BasePose {
+            x_m: spot.x_m + 2.0 * spot.yaw_rad.sin(),
+            y_m: spot.y_m - 2.0 * spot.yaw_rad.cos(),
+            yaw_rad: spot.yaw_rad,
+        };
+        let (direct, what, _) = drive_clearance(&site, &side, &spot);
+        assert!(direct < DRIVE_CLEARANCE_M, "{direct} {what}");
+        let stage = BasePose {
+            x_m: spot.x_m - STAGING_DISTANCES_M[0] * spot.yaw_rad.cos(),
+            y_m: spot.y_m - STAGING_DISTANCES_M[0] * spot.yaw_rad.sin(),
+            yaw_rad: spot.yaw_rad,
+        };
+        let (last, what, _) = drive_clearance(&site, &stage, &spot);
+        assert!(last >= DRIVE_CLEARANCE_M, "{last} {what}");
     }
 }

@@ -1,5 +1,8 @@
 //! `look_wire` (hang): the wrist camera level with the wire at the lift's height
-//! ([`crate::stages::wire_flow`], step 2, from the panoramic fix).
+//! ([`crate::stages::wire_flow`], step 2, from the panoramic fix). When the arm cannot
+//! reach the look without a collision (the held rod against the lift mast, on some bays),
+//! it looks from beside it: [`LOOK_ALTERNATIVES`] along the wire and farther back, the
+//! first that is free; the captures still see the wire around the hanging point.
 
 use crate::stages::task::Task;
 use crate::stages::task::action::Action;
@@ -14,18 +17,46 @@ pub(crate) const STEP: StepDef = StepDef {
     finish: next_in_flow,
 };
 
+/// Where else the camera may look from when the look at the prior collides: shift of the
+/// looked-at point along the wire (m), extra standoff (m). The view spans about +-0.2 m of
+/// the wire at 0.45 m, so the hanging point stays in it.
+pub(crate) const LOOK_ALTERNATIVES: [(f64, f64); 6] = [
+    (0.0, 0.0),
+    (0.1, 0.0),
+    (-0.1, 0.0),
+    (0.0, 0.1),
+    (0.1, 0.1),
+    (-0.1, 0.1),
+];
+
 fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
     let p = task.planner();
     let q = p.q()?;
     let lift = p.lift()?;
-    let prior = p.wire_prior_in_base()?;
-    let camera = task
-        .wire
-        .look_pose(&prior, &p.arm_base_point(lift))
-        .map_err(|e| Stop::failed("bad_geometry", e.to_string()))?;
-    let tool = camera * task.robot.tool0_from_camera_now().inverse();
-    let goal = p.ik_goal(lift, &tool, &q)?;
+    let (point, direction) = p.wire_prior_in_base()?;
+    let along = direction.normalize();
+    let tool0_from_camera = task.robot.tool0_from_camera_now();
     let world = p.world(lift)?;
-    let plan = p.plan_move(&world, lift, &q, &goal, "look at the wire")?;
-    Ok(vec![p.arm_action(&plan, "camera level with the wire")])
+    let mut first_refusal = None;
+    for (shift_m, extra_m) in LOOK_ALTERNATIVES {
+        let looked_at = (point + along * shift_m, direction);
+        let camera = task
+            .wire
+            .look_pose_from(
+                &looked_at,
+                &p.arm_base_point(lift),
+                task.wire.params().standoff_m + extra_m,
+            )
+            .map_err(|e| Stop::failed("bad_geometry", e.to_string()))?;
+        let tool = camera * tool0_from_camera.inverse();
+        let attempt = p
+            .ik_goal(lift, &tool, &q)
+            .and_then(|goal| p.plan_move(&world, lift, &q, &goal, "look at the wire"));
+        match attempt {
+            Ok(plan) => return Ok(vec![p.arm_action(&plan, "camera level with the wire")]),
+            Err(stop) if first_refusal.is_none() => first_refusal = Some(stop),
+            Err(_) => {}
+        }
+    }
+    Err(first_refusal.unwrap_or_else(|| Stop::refused("unreachable", "no look at the wire")))
 }

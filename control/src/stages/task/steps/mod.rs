@@ -18,6 +18,7 @@
 //! | [`panoramic`] | hang | a wait for a panoramic frame | the panoramic fix |
 //! | [`look_wire`] | hang | camera level with the wire | - |
 //! | [`capture_wire`] | hang | wrist captures | the wire estimate |
+//! | [`capture_wire_more`] | hang (when the captures see the wire swing) | more wrist captures | the wire estimate and its sway over all |
 //! | [`to_pre_approach`] | hang | arm to the pre-approach, lift to the hook height | - |
 //! | [`approach`] | hang | the hook across the wire | - |
 //! | [`close_clamp`] | hang | close the clamp | the clamp's travel (clamped or missed) |
@@ -39,6 +40,7 @@ pub(crate) mod capture_empty_rack;
 pub(crate) mod capture_handle;
 pub(crate) mod capture_rack;
 pub(crate) mod capture_wire;
+pub(crate) mod capture_wire_more;
 pub(crate) mod check_calibration;
 pub(crate) mod check_more;
 pub(crate) mod close_clamp;

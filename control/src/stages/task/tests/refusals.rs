@@ -37,7 +37,7 @@ fn ended_at_s(rig: &Rig) -> f64 {
 fn a_windy_start_holds_without_a_command_then_refuses() {
     let mut rig = Rig::with(TaskKind::Hang, |c, b| {
         c.self_maintenance = false;
-        b.wind = |_| Some(3.5);
+        b.wind = |_| Some(4.5);
     });
     rig.run(LIMIT_S);
     let last = assert_ended(&rig, TaskEvent::REFUSED, "wind_above_limit");
@@ -52,7 +52,7 @@ fn a_gust_during_the_task_holds_the_commands_and_the_task_goes_on() {
     let mut rig = Rig::with(TaskKind::Hang, |c, b| {
         c.self_maintenance = false;
         // Calm until 3 s, a gust for 10 s, calm again.
-        b.wind = |t| Some(if (3.0..13.0).contains(&t) { 3.0 } else { 0.5 });
+        b.wind = |t| Some(if (3.0..13.0).contains(&t) { 4.5 } else { 0.5 });
     });
     rig.run(LIMIT_S);
     assert_done(&rig);
@@ -67,6 +67,31 @@ fn a_gust_during_the_task_holds_the_commands_and_the_task_goes_on() {
         .filter(|o| [ARM_JOINT_TRAJECTORY, LIFT_COMMAND, BASE_GOAL].contains(&o.topic.as_str()))
         .count();
     assert_eq!(during, 0);
+}
+
+#[test]
+fn a_wire_swinging_wider_than_a_hang_allows_is_held_for_then_refused() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, b| {
+        c.self_maintenance = false;
+        b.wire_sway_m = 0.06;
+    });
+    rig.run(LIMIT_S);
+    let last = assert_ended(&rig, TaskEvent::REFUSED, "wire_sway");
+    assert!(last.text.contains("wait for calmer air"), "{last:?}");
+    assert_eq!(
+        with_reason(&rig, "holding_for_sway").len(),
+        crate::stages::task::judging::MAX_WIRE_SWAY_HOLDS
+    );
+    // The hook never went towards the wire.
+    let refused_at = ended_at_s(&rig);
+    assert!(refused_at < 120.0, "refused at {refused_at} s");
+    let steps = rig.steps();
+    assert!(
+        !steps
+            .iter()
+            .any(|s| s == "to_pre_approach" || s == "approach"),
+        "{steps:?}"
+    );
 }
 
 #[test]
@@ -87,7 +112,7 @@ fn gusts_that_keep_the_operation_past_its_time_refuse_for_the_wind() {
         c.self_maintenance = false;
         c.operation_timeout = RobotDuration::from_secs(20);
         c.wind.hold_timeout = RobotDuration::from_secs(60);
-        b.wind = |t| Some(if t >= 3.0 { 3.0 } else { 0.5 });
+        b.wind = |t| Some(if t >= 3.0 { 4.5 } else { 0.5 });
     });
     rig.run(LIMIT_S);
     let last = assert_ended(&rig, TaskEvent::REFUSED, "wind_above_limit");
@@ -95,6 +120,30 @@ fn gusts_that_keep_the_operation_past_its_time_refuse_for_the_wind() {
         last.text.contains("could not finish within 20 s"),
         "{last:?}"
     );
+}
+
+#[test]
+fn gusts_that_keep_stopping_the_work_refuse_within_the_hold_budget() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, b| {
+        c.self_maintenance = false;
+        c.wind.hold_budget = RobotDuration::from_secs(10);
+        // Gusts of 8 s every 9 s from the start: no single hold reaches the 60 s timeout,
+        // and the calm seconds between them are too few to finish the hang.
+        b.wind = |t| {
+            Some(if t >= 1.2 && (t - 1.2) % 9.0 < 8.0 {
+                4.5
+            } else {
+                0.5
+            })
+        };
+    });
+    rig.run(LIMIT_S);
+    let last = assert_ended(&rig, TaskEvent::REFUSED, "wind_above_limit");
+    assert!(last.text.contains("in all this operation"), "{last:?}");
+    let ended = ended_at_s(&rig);
+    // 10 s of holds: the second gust ends it, long before the 300 s operation limit.
+    assert!((10.0..20.0).contains(&ended), "ended at {ended} s");
+    assert_eq!(with_reason(&rig, "holding_for_wind").len(), 2);
 }
 
 #[test]

@@ -82,6 +82,9 @@ pub struct Behaviour {
     /// The hung rod sways: its handle is this far along the wire (m), alternately either side,
     /// in consecutive captures.
     pub sway_m: f64,
+    /// The wire swings: in capture `k` it is `wire_sway_m sin(1.3 k)` across itself,
+    /// horizontally (m).
+    pub wire_sway_m: f64,
     /// Whether each close of the clamp at the wire lands on it, in order (the last repeats).
     pub hook_hits: Vec<bool>,
     /// Whether each grasp couples the rod, in order (the last repeats).
@@ -109,6 +112,7 @@ impl Behaviour {
             rack: None,
             hung_rod: None,
             sway_m: 0.0,
+            wire_sway_m: 0.0,
             hook_hits: vec![true],
             grasp_couples: vec![true],
             calibration: VecDeque::from(["consistent"]),
@@ -485,8 +489,10 @@ impl Rig {
         let mut scene = Scene::default();
         if let Some((point, direction)) = self.behaviour.wire.filter(|_| self.behaviour.wrist_wire)
         {
+            let across = Vector3::z().cross(&direction).normalize();
+            let swing = self.behaviour.wire_sway_m * (1.3 * self.captures as f64).sin();
             scene.cylinders.push(CylinderShape {
-                centre: camera_from_map * point,
+                centre: camera_from_map * (point + across * swing),
                 direction: (camera_from_map.rotation * direction).normalize(),
                 radius_m: WIRE_RADIUS_M,
                 half_length_m: 5.0,
