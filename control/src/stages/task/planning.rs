@@ -405,7 +405,11 @@ impl Planner<'_> {
             if jump > LINE_BRANCH_JUMP_RAD {
                 return Err(Stop::refused(
                     "unreachable",
-                    format!("straight line: branch jump of {jump:.3} rad at via point {k}/{n}"),
+                    format!(
+                        "straight line: branch jump of {jump:.3} rad at via point {k}/{n} (from {} to {} rad): the line leaves the arm's branch, at the edge of its reach or at a singularity",
+                        fmt_q(&seed),
+                        fmt_q(&q)
+                    ),
                 ));
             }
             out.push(q);
@@ -867,4 +871,10 @@ impl Planner<'_> {
         let plan = self.plan(&world, lift, &q, &line, what)?;
         Ok((plan, line.last().copied().unwrap_or(q)))
     }
+}
+
+/// Joint angles for a message, `[a, b, ...]` to 3 decimals.
+fn fmt_q(q: &[f64; 6]) -> String {
+    let parts: Vec<String> = q.iter().map(|v| format!("{v:.3}")).collect();
+    format!("[{}]", parts.join(", "))
 }
