@@ -254,6 +254,31 @@ impl Planner<'_> {
             })
     }
 
+    /// Every IK solution within the joint limits for `base_from_tool0` at `lift_m`, nearest
+    /// `seed` first (the arm's branches: shoulder, elbow, wrist).
+    ///
+    /// # Errors
+    /// `unreachable` when no branch reaches the pose within the limits.
+    pub fn ik_goals(
+        &self,
+        lift_m: f64,
+        base_from_tool0: &Isometry3<f64>,
+        seed: &[f64; 6],
+    ) -> Result<Vec<[f64; 6]>, Stop> {
+        let target = self.model().arm_base_from_base(lift_m) * base_from_tool0;
+        let solutions = self.task.arm.ik.solve(&target, Some(seed)).map_err(|e| {
+            Stop::refused(
+                "unreachable",
+                format!("tool0 goal not reachable at lift {lift_m:.3} m: {e}"),
+            )
+        })?;
+        if solutions.within_limits.is_empty() {
+            // The nearest's error says which joint is out of its limits.
+            return self.ik_goal(lift_m, base_from_tool0, seed).map(|q| vec![q]);
+        }
+        Ok(solutions.within_limits.iter().map(|s| s.q_rad).collect())
+    }
+
     /// A checked joint-space plan from `q0` through `waypoints` at `lift_m`, with the arm
     /// model of [`Self::arm_model`].
     ///

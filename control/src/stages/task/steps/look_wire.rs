@@ -1,8 +1,9 @@
 //! `look_wire` (hang): the wrist camera level with the wire at the lift's height
 //! ([`crate::stages::wire_flow`], step 2, from the panoramic fix). When the arm cannot
 //! reach the look without a collision (the held rod against the lift mast, on some bays),
-//! it looks from beside it: [`LOOK_ALTERNATIVES`] along the wire and farther back, the
-//! first that is free; the captures still see the wire around the hanging point.
+//! it takes the look in the arm's other branches, then from beside it: [`LOOK_ALTERNATIVES`]
+//! along the wire and farther back, the first that is free; the captures still see the wire
+//! around the hanging point.
 
 use crate::stages::task::Task;
 use crate::stages::task::action::Action;
@@ -49,13 +50,20 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
             )
             .map_err(|e| Stop::failed("bad_geometry", e.to_string()))?;
         let tool = camera * tool0_from_camera.inverse();
-        let attempt = p
-            .ik_goal(lift, &tool, &q)
-            .and_then(|goal| p.plan_move(&world, lift, &q, &goal, "look at the wire"));
-        match attempt {
-            Ok(plan) => return Ok(vec![p.arm_action(&plan, "camera level with the wire")]),
-            Err(stop) if first_refusal.is_none() => first_refusal = Some(stop),
-            Err(_) => {}
+        let goals = match p.ik_goals(lift, &tool, &q) {
+            Ok(g) => g,
+            Err(stop) => {
+                first_refusal.get_or_insert(stop);
+                continue;
+            }
+        };
+        for goal in goals {
+            match p.plan_move(&world, lift, &q, &goal, "look at the wire") {
+                Ok(plan) => return Ok(vec![p.arm_action(&plan, "camera level with the wire")]),
+                Err(stop) => {
+                    first_refusal.get_or_insert(stop);
+                }
+            }
         }
     }
     Err(first_refusal.unwrap_or_else(|| Stop::refused("unreachable", "no look at the wire")))
