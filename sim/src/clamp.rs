@@ -7,7 +7,9 @@
 //! where the motor holds `max_torque_nm` (effort); `OPEN` drives back to 0; `STOP` brakes
 //! and holds. Joint state (producer `clamp_driver`, 100 Hz): position + `N(0, 0.02 mm)`
 //! encoder noise, velocity, effort = motor torque (N m): [`FRICTION_TORQUE_NM`] while moving,
-//! the commanded maximum while pressing on a contact, 0 at rest.
+//! the commanded maximum while pressing on a contact, 0 at rest. A jaw already past the
+//! contact travel (by more than [`LATE_CONTACT_M`]) when the contact appears has closed in
+//! front of the conductor: the wire cannot enter the mouth, and the jaw does not bite it.
 
 use msgs::RobotTime;
 use msgs::drivers::{ClampDriver, DriverError};
@@ -20,6 +22,10 @@ use crate::arm::{TICK_S, TickClock};
 use crate::motion::Axis;
 use crate::rng::{self, streams};
 
+
+/// How far past the contact travel a closing jaw may be when the contact appears and still
+/// bite (m): a tenth of a second of travel at the 5 mm/s stroke.
+pub const LATE_CONTACT_M: f64 = 5e-4;
 /// Producer of the clamp's joint state.
 pub const CLAMP_DRIVER: &str = "clamp_driver";
 pub use robot::grounding_rod::{CLAMP_TRAVEL_M, WIRE_CONTACT_TRAVEL_M};
@@ -92,9 +98,12 @@ impl ClampSim {
             && self.axis.settled()
     }
 
-    /// Sets (or clears) the travel where the jaw meets something; a closing jaw beyond it
-    /// is stopped there.
+    /// Sets (or clears) the travel where the jaw meets something; a closing jaw reaching it
+    /// is stopped there. A jaw already past it by more than [`LATE_CONTACT_M`] (closed in
+    /// front of the conductor, which swung in late) meets nothing.
     pub fn set_contact(&mut self, contact_travel_m: Option<f64>) {
+        let contact_travel_m =
+            contact_travel_m.filter(|c| self.axis.position <= c + LATE_CONTACT_M);
         self.contact_travel_m = contact_travel_m;
         if self.closing {
             self.axis.goal = contact_travel_m
@@ -241,6 +250,15 @@ mod tests {
             c.command(RobotTime::from_millis(25_000), &cmd(7, 1.0))
                 .is_err()
         );
+        // Closed fully on nothing, the jaw does not bite a wire that swings in afterwards.
+        let mut late = ClampSim::new(1, false);
+        late.command(RobotTime::ZERO, &cmd(ClampCommand::CLOSE, 8.0))?;
+        late.advance(RobotTime::from_millis(12_000))?;
+        assert!((late.travel_m() - CLAMP_TRAVEL_M).abs() < 1e-9);
+        late.set_contact(Some(WIRE_CONTACT_TRAVEL_M));
+        late.advance(RobotTime::from_millis(13_000))?;
+        assert!((late.travel_m() - CLAMP_TRAVEL_M).abs() < 1e-9);
+        assert!(!late.pressing());
         assert!(
             c.command(
                 RobotTime::from_millis(25_000),
