@@ -22,7 +22,6 @@ use crate::arm::{TICK_S, TickClock};
 use crate::motion::Axis;
 use crate::rng::{self, streams};
 
-
 /// How far past the contact travel a closing jaw may be when the contact appears and still
 /// bite (m): a tenth of a second of travel at the 5 mm/s stroke.
 pub const LATE_CONTACT_M: f64 = 5e-4;

@@ -464,6 +464,7 @@ impl TaskStage {
                 self.task.out.extend(action.outputs.iter().cloned());
                 if action.until == Until::ClampRest {
                     self.task.robot.clamp_rest_since = None;
+                    self.task.robot.clamp_pressed_m = None;
                 }
                 self.running = Some(Running {
                     action,

@@ -48,6 +48,11 @@ pub(crate) struct RobotState {
     /// Since when the clamp has been slower than [`CLAMP_REST_M_S`] (reset when a clamp
     /// action starts).
     pub clamp_rest_since: Option<RobotTime>,
+    /// The travel at which the clamp last pressed on something (effort at half the torque
+    /// limit or more) since a clamp action started.
+    pub clamp_pressed_m: Option<f64>,
+    /// The effort that counts as pressing (N m): half the clamp's torque limit.
+    clamp_press_nm: f64,
     /// The latest odometry sample (its log time, the base pose in `map`).
     pub odometry: Option<(RobotTime, BasePose)>,
     /// Stamp of the latest odometry sample.
@@ -86,6 +91,8 @@ impl RobotState {
             lift_speed_m_s: 0.0,
             clamp_m: None,
             clamp_rest_since: None,
+            clamp_pressed_m: None,
+            clamp_press_nm: 0.5 * config.clamp_torque_nm,
             odometry: None,
             odometry_stamp_ns: None,
             base_still_since: None,
@@ -142,6 +149,10 @@ impl RobotState {
                 }
                 _ if name == msgs::frames::CLAMP_JOINT => {
                     self.clamp_m = position.or(self.clamp_m);
+                    let effort = js.effort.get(k).copied().unwrap_or(0.0);
+                    if effort.abs() >= self.clamp_press_nm {
+                        self.clamp_pressed_m = position.or(self.clamp_pressed_m);
+                    }
                     if velocity.abs() < CLAMP_REST_M_S {
                         self.clamp_rest_since.get_or_insert(self.now);
                     } else {

@@ -730,6 +730,24 @@ impl Task {
             );
             return Ok(Next::Following);
         }
+        // The jaw pressed on the wire, then ran on unloaded: the swinging wire pulled the
+        // clamped rod out of the gripper. The rod is on the wire (its screw self-locks);
+        // the release backs the gripper away from where it was.
+        if let Some(pressed) = self.robot.clamp_pressed_m
+            && (pressed - WIRE_CONTACT_TRAVEL_M).abs() <= CLAMP_CONTACT_TOLERANCE_M
+        {
+            self.event(
+                TaskEvent::INFO,
+                close_clamp::NAME,
+                "rod_pulled",
+                format!(
+                    "clamped: the jaw pressed on the wire at {:.1} mm, then ran on to {:.1} mm: the swinging wire pulled the clamped rod out of the gripper; the rod stays on the wire, the gripper backs away",
+                    pressed * 1e3,
+                    travel * 1e3
+                ),
+            );
+            return Ok(Next::Following);
+        }
         self.memory.attempts += 1;
         let text = format!(
             "the clamp closed to {:.1} mm (wire contact at {:.1} mm, full travel {:.1} mm): the hook missed the wire",
