@@ -95,6 +95,31 @@ fn a_wire_swinging_wider_than_a_hang_allows_is_held_for_then_refused() {
 }
 
 #[test]
+fn a_clamped_rod_pulled_from_the_gripper_is_released_not_backed_off_with() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, b| {
+        c.self_maintenance = false;
+        b.rod_pulled = true;
+    });
+    rig.run(LIMIT_S);
+    assert_done(&rig);
+    let pulled = with_reason(&rig, "rod_pulled");
+    assert_eq!(pulled.len(), 1, "{pulled:#?}");
+    assert!(
+        pulled[0].text.contains("pressed on the wire at 45.0 mm"),
+        "{pulled:?}"
+    );
+    // No back-off and second look: one close, then the release.
+    assert!(with_reason(&rig, "retry").is_empty());
+    let steps = rig.steps();
+    let close = steps.iter().position(|s| s == "close_clamp");
+    assert_eq!(
+        close.and_then(|k| steps.get(k + 1)).map(String::as_str),
+        Some("release"),
+        "{steps:?}"
+    );
+}
+
+#[test]
 fn no_wind_reading_refuses_before_operating() {
     let mut rig = Rig::with(TaskKind::Hang, |c, b| {
         c.self_maintenance = false;

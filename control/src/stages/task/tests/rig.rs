@@ -85,6 +85,9 @@ pub struct Behaviour {
     /// The wire swings: in capture `k` it is `wire_sway_m sin(1.3 k)` across itself,
     /// horizontally (m).
     pub wire_sway_m: f64,
+    /// A clamp that lands on the wire presses on it for a tick, then runs on to full travel
+    /// unloaded (the swinging wire pulled the clamped rod out of the gripper).
+    pub rod_pulled: bool,
     /// Whether each close of the clamp at the wire lands on it, in order (the last repeats).
     pub hook_hits: Vec<bool>,
     /// Whether each grasp couples the rod, in order (the last repeats).
@@ -113,6 +116,7 @@ impl Behaviour {
             hung_rod: None,
             sway_m: 0.0,
             wire_sway_m: 0.0,
+            rod_pulled: false,
             hook_hits: vec![true],
             grasp_couples: vec![true],
             calibration: VecDeque::from(["consistent"]),
@@ -160,6 +164,8 @@ pub struct Rig {
     q: [f64; 6],
     lift_m: f64,
     clamp_m: f64,
+    /// The clamp's effort in the next joint state (N m).
+    clamp_effort_nm: f64,
     base: BasePose,
     wrist: CameraModel,
     rays: RayTable,
@@ -237,6 +243,7 @@ impl Rig {
             q: stow,
             lift_m: 0.0,
             clamp_m: 0.0,
+            clamp_effort_nm: 0.0,
             base: BasePose {
                 x_m: spot.x_m,
                 y_m: spot.y_m - 1.0,
@@ -349,6 +356,7 @@ impl Rig {
     }
 
     fn clamp(&mut self, step: &str, action: u8) {
+        self.clamp_effort_nm = 0.0;
         if action == ClampCommand::OPEN {
             self.clamp_m = 0.0;
             return;
@@ -362,6 +370,7 @@ impl Rig {
         self.closes_at_wire += 1;
         if hit {
             self.clamp_m = WIRE_CONTACT_TRAVEL_M;
+            self.clamp_effort_nm = 8.0;
             let map_from_tool0 = self.map_from_base() * self.base_from_tool0();
             self.behaviour.hung_rod = Some(map_from_tool0 * rod_from_tool0_grasp().inverse());
         } else {
@@ -395,13 +404,22 @@ impl Rig {
         let mut position = vec![self.lift_m];
         position.extend(self.q);
         position.push(self.clamp_m);
+        let mut effort = vec![0.0; names.len()];
+        if let Some(e) = effort.last_mut() {
+            *e = self.clamp_effort_nm;
+        }
+        if self.behaviour.rod_pulled && self.clamp_effort_nm > 0.0 {
+            // Pressed for this tick; then pulled out of the gripper, the jaw runs on.
+            self.clamp_m = robot::grounding_rod::CLAMP_TRAVEL_M;
+            self.clamp_effort_nm = 0.0;
+        }
         let js = JointState {
             header: Header {
                 stamp: stamp(now),
                 frame_id: String::new(),
             },
             velocity: vec![0.0; names.len()],
-            effort: Vec::new(),
+            effort,
             name: names,
             position,
         };
