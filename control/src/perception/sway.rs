@@ -2,14 +2,14 @@
 //! band it swings in.
 //!
 //! # Model
-//! A conductor in a cross wind swings about its chord as a pendulum of angle `theta(t)`
-//! (`sim::environment` states the simulator's model; IEC 60826 and CIGRE TB 601 use the same
-//! rigid-swing picture for conductor blow-out): a point hanging `L` below the chord moves by
-//! `L sin theta` horizontally, across the wire, and by `L (1 - cos theta)` vertically. At the
-//! swing angles of a working wind (`theta` < 0.05 rad) the vertical part is below
-//! `theta / 2` of the horizontal one (< 1 mm for 30 mm of swing), so the sway is a motion
-//! along the horizontal direction across the wire, `s = normalize(z x a)` for the axis
-//! direction `a` in `base_link` (z up).
+//! A conductor in a cross wind swings about its chord as a pendulum of angle `theta(t)` (the
+//! rigid swing of line clearance design, whose static angle has the wind load per weight of
+//! conductor for its tangent; ARCHITECTURE.md section 6): a point hanging `L` below the chord
+//! moves by `L sin theta` horizontally, across the wire, and by `L (1 - cos theta)`
+//! vertically. At the swing angles of a working wind (`theta` < 0.05 rad) the vertical part
+//! is below `theta / 2` of the horizontal one (< 1 mm for 30 mm of swing), so the sway is a
+//! motion along the horizontal direction across the wire, `s = normalize(z x a)` for the
+//! axis direction `a` in `base_link` (z up).
 //!
 //! Each capture `i` sees the axis through `p_i` (its axis point nearest the requested
 //! location `q`); its sway offset is `d_i = (p_i - p_bar) . s` about the mean point
