@@ -40,6 +40,7 @@ use control::motion::collision::{
     ARM_LINK_NAMES, ArmCollisionModel, CHASSIS_CENTRE_Z_M, CHASSIS_HALF_EXTENTS_M, Capsule,
     CollisionWorld, OrientedBox, SELF_COLLISION_PAIRS, capsule_box, capsule_capsule,
 };
+use control::motion::trajectory::TrapezoidProfile;
 use msgs::Msg;
 use msgs::rodlog_msgs::TaskEvent;
 use msgs::topics;
@@ -339,13 +340,7 @@ impl WireTrack {
         let mut poses = Vec::new();
         for m in reader.messages(&ReadFilter::all().with_topics([topics::SIM_WIRE_POSE])) {
             let m = m.map_err(read)?;
-            let msg = m.decode().map_err(|e| ComposeError::Decode {
-                path: path.to_path_buf(),
-                topic: m.topic().to_owned(),
-                log_time_ns: m.log_time_ns,
-                reason: e.to_string(),
-            })?;
-            if let Msg::PoseStamped(p) = msg {
+            if let Msg::PoseStamped(p) = decode(path, &m)? {
                 poses.push((
                     m.log_time_ns as f64 * 1e-9,
                     robot::conversions::isometry_from_pose(&p.pose),
@@ -375,16 +370,14 @@ impl WireTrack {
     }
 }
 
-/// Time (s) the lift takes to travel `distance_m` from rest (trapezoidal profile at the
-/// nominal lift's speed and acceleration limits, the deceleration at the end ignored).
-fn lift_travel_s(distance_m: f64) -> f64 {
-    use robot::kinematics::{LIFT_ACCEL_MAX_M_S2 as A, LIFT_SPEED_MAX_M_S as V};
-    let ramp_m = V * V / (2.0 * A);
-    if distance_m <= ramp_m {
-        (2.0 * distance_m / A).sqrt()
-    } else {
-        V / A + (distance_m - ramp_m) / V
-    }
+/// A recorded message of `path`, decoded.
+fn decode(path: &std::path::Path, m: &replay::McapMessage) -> Result<Msg, ComposeError> {
+    m.decode().map_err(|e| ComposeError::Decode {
+        path: path.to_path_buf(),
+        topic: m.topic().to_owned(),
+        log_time_ns: m.log_time_ns,
+        reason: e.to_string(),
+    })
 }
 
 /// Smallest clearance of the true robot at `(lift, q)` in `state`, with what touched what,
@@ -630,12 +623,7 @@ pub fn judge(path: &std::path::Path) -> Result<Verdict, ComposeError> {
         let m = m.map_err(read)?;
         let t_s = m.log_time_ns as f64 * 1e-9;
         let topic = m.topic().to_owned();
-        let msg = m.decode().map_err(|e| ComposeError::Decode {
-            path: path.to_path_buf(),
-            topic: topic.clone(),
-            log_time_ns: m.log_time_ns,
-            reason: e.to_string(),
-        })?;
+        let msg = decode(path, &m)?;
         match (topic.as_str(), &msg) {
             (topics::JOINT_STATES, Msg::JointState(js)) => {
                 for (k, name) in js.name.iter().enumerate() {
@@ -775,11 +763,22 @@ pub fn judge(path: &std::path::Path) -> Result<Verdict, ComposeError> {
                         if !(limit.position_min..=limit.position_max).contains(&h.data) {
                             reasons.push(format!("lift goal {:.3} m outside the travel", h.data));
                         }
-                        let n = ((h.data - state.lift_m).abs() / 0.02).ceil().max(1.0) as usize;
+                        // The lift's own profile from rest (the simulator's and the robot
+                        // crate's limits), sampled in time at most 2 cm of travel apart.
+                        let rise = h.data - state.lift_m;
+                        let profile = TrapezoidProfile::new(
+                            rise.abs(),
+                            robot::kinematics::LIFT_SPEED_MAX_M_S,
+                            robot::kinematics::LIFT_ACCEL_MAX_M_S2,
+                        );
+                        let duration_s = profile.duration_s();
+                        let n = (duration_s * robot::kinematics::LIFT_SPEED_MAX_M_S / 0.02)
+                            .ceil()
+                            .max(1.0) as usize;
                         for k in 0..=n {
-                            let lift = state.lift_m + (h.data - state.lift_m) * k as f64 / n as f64;
-                            let wire =
-                                wire_track.around(t_s + lift_travel_s((lift - state.lift_m).abs()));
+                            let after_s = duration_s * k as f64 / n as f64;
+                            let lift = state.lift_m + rise.signum() * profile.sample(after_s).0;
+                            let wire = wire_track.around(t_s + after_s);
                             let (c, what) = clearance(&truth, &state, lift, &state.q, &wire);
                             verdict.min_clearance_m = verdict.min_clearance_m.min(c);
                             if c < 0.0 {
@@ -885,14 +884,5 @@ mod tests {
         // Before the first pose: the first ones; after the last: the last.
         assert_eq!(ys(-1.0), vec![0.0]);
         assert_eq!(ys(10.0), vec![49.0]);
-    }
-
-    #[test]
-    fn the_lift_travel_time_follows_its_speed_and_acceleration_limits() {
-        use robot::kinematics::{LIFT_ACCEL_MAX_M_S2 as A, LIFT_SPEED_MAX_M_S as V};
-        assert!(lift_travel_s(0.0).abs() < 1e-12);
-        let ramp = V * V / (2.0 * A);
-        assert!((lift_travel_s(ramp) - V / A).abs() < 1e-9);
-        assert!((lift_travel_s(ramp + 1.0) - (V / A + 1.0 / V)).abs() < 1e-9);
     }
 }

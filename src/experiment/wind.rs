@@ -137,34 +137,38 @@ pub const GOOD_SUCCESS: f64 = 0.9;
 /// The paper's "good at <= 2 m/s" beside the success at those speeds, and what rodlog does
 /// above them: up to 3 m/s it should be as good (the envelope rodlog claims), above that
 /// the table says what happens.
+/// What, the paper's figure, the speeds pooled, and whether a pool below [`GOOD_SUCCESS`]
+/// is behind.
+type ComparisonRow = (&'static str, &'static str, fn(f64) -> bool, bool);
+
 fn paper_comparisons(speeds: &[(f64, u64)], groups: &[GroupSummary]) -> Vec<Comparison> {
-    let (allowed, _) = pooled_split(speeds, groups, |v| v <= 2.0);
-    let (to_three, _) = pooled_split(speeds, groups, |v| v > 2.0 && v <= 3.0);
-    let (above, _) = pooled_split(speeds, groups, |v| v > 3.0);
-    let mut out = Vec::new();
-    if allowed.1 > 0 {
-        out.push(Comparison::new(
+    let rows: [ComparisonRow; 3] = [
+        (
             "hang success at mean winds up to 2 m/s",
             "good (read: >= 90 %)",
-            fmt_share(allowed),
-            (allowed.0 as f64) < GOOD_SUCCESS * allowed.1 as f64,
-        ));
-    }
-    if to_three.1 > 0 {
-        out.push(Comparison::new(
+            |v| v <= 2.0,
+            true,
+        ),
+        (
             "hang success above 2 m/s, up to 3 m/s",
             "not operated (the paper's limit is 2 m/s); rodlog aims at >= 90 %",
-            fmt_share(to_three),
-            (to_three.0 as f64) < GOOD_SUCCESS * to_three.1 as f64,
-        ));
-    }
-    if above.1 > 0 {
-        out.push(Comparison::new(
+            |v| v > 2.0 && v <= 3.0,
+            true,
+        ),
+        (
             "hang success above 3 m/s",
             "not operated (the paper's limit is 2 m/s)",
-            fmt_share(above),
+            |v| v > 3.0,
             false,
-        ));
-    }
-    out
+        ),
+    ];
+    rows.into_iter()
+        .filter_map(|(what, paper, inside, aims_good)| {
+            let (pool, _) = pooled_split(speeds, groups, inside);
+            (pool.1 > 0).then(|| {
+                let short = (pool.0 as f64) < GOOD_SUCCESS * pool.1 as f64;
+                Comparison::new(what, paper, fmt_share(pool), aims_good && short)
+            })
+        })
+        .collect()
 }

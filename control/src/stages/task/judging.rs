@@ -386,8 +386,6 @@ impl Task {
                         est.metrics.captures, est.confidence.score, est.confidence.limiting
                     ),
                 );
-                self.memory.conductor_sway_margin_m =
-                    CONDUCTOR_SWAY_MARGIN_M.max(est.sway.envelope_m + SWAY_CLEARANCE_M);
                 self.memory.wire_in_base = Some((est.hanging.point, axis.direction));
                 self.memory.hook_goal = Some(hook);
                 Ok(Next::Following)
@@ -399,7 +397,8 @@ impl Task {
     /// The wire's sway across the captures: more captures when they see it swing and have
     /// not had them yet; a hold and a new look when its band is wider than
     /// [`TaskConfig::max_sway_m`](super::TaskConfig::max_sway_m), refused (`wire_sway`)
-    /// after [`MAX_WIRE_SWAY_HOLDS`]; `None` to go on with the estimate.
+    /// after [`MAX_WIRE_SWAY_HOLDS`]; `None` to go on with the estimate, the conductors'
+    /// clearance then set to the band plus [`SWAY_CLEARANCE_M`].
     ///
     /// # Errors
     /// `wire_sway`.
@@ -426,6 +425,8 @@ impl Task {
         }
         let max_vertical_m = MAX_VERTICAL_SWAY_FRACTION * HookTolerance::DESIGN.across_m;
         if sway.envelope_m <= self.config.max_sway_m && sway.vertical_envelope_m <= max_vertical_m {
+            let margin_m = CONDUCTOR_SWAY_MARGIN_M.max(sway.envelope_m + SWAY_CLEARANCE_M);
+            self.memory.conductor_sway_margin_m = margin_m;
             if sway.is_swaying() {
                 self.event(
                     TaskEvent::INFO,
@@ -433,7 +434,7 @@ impl Task {
                     "wire_sway",
                     format!(
                         "{seen}: the hook goes to the centre and the conductors are kept {:.0} mm clear",
-                        1e3 * CONDUCTOR_SWAY_MARGIN_M.max(sway.envelope_m + SWAY_CLEARANCE_M)
+                        1e3 * margin_m
                     ),
                 );
             }

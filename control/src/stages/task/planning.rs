@@ -279,6 +279,40 @@ impl Planner<'_> {
         Ok(solutions.within_limits.iter().map(|s| s.q_rad).collect())
     }
 
+    /// The first of `attempt`'s plans for the tool0 `goals` in turn, each in the arm's IK
+    /// branches nearest `seed` first ([`Self::ik_goals`]): a goal configuration whose
+    /// motion collides gives way to another branch, then to the next goal.
+    ///
+    /// # Errors
+    /// The first refusal when no goal and branch gives a plan (`unreachable` without goals).
+    pub fn first_plannable<T>(
+        &self,
+        lift_m: f64,
+        goals: &[Isometry3<f64>],
+        seed: &[f64; 6],
+        mut attempt: impl FnMut(&[f64; 6]) -> Result<T, Stop>,
+    ) -> Result<T, Stop> {
+        let mut first_refusal = None;
+        for goal in goals {
+            let branches = match self.ik_goals(lift_m, goal, seed) {
+                Ok(b) => b,
+                Err(stop) => {
+                    first_refusal.get_or_insert(stop);
+                    continue;
+                }
+            };
+            for q in &branches {
+                match attempt(q) {
+                    Ok(plan) => return Ok(plan),
+                    Err(stop) => {
+                        first_refusal.get_or_insert(stop);
+                    }
+                }
+            }
+        }
+        Err(first_refusal.unwrap_or_else(|| Stop::refused("unreachable", "no goal to plan for")))
+    }
+
     /// A checked joint-space plan from `q0` through `waypoints` at `lift_m`, with the arm
     /// model of [`Self::arm_model`].
     ///

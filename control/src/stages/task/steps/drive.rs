@@ -71,11 +71,7 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
     } else {
         // By a staging pose behind the spot: the last leg is a straight drive, no turn.
         let staged = STAGING_DISTANCES_M.iter().find_map(|&d| {
-            let stage = BasePose {
-                x_m: spot.x_m - d * spot.yaw_rad.cos(),
-                y_m: spot.y_m - d * spot.yaw_rad.sin(),
-                yaw_rad: spot.yaw_rad,
-            };
+            let stage = staging_pose(&spot, d);
             let first = drive_clearance(site, &here, &stage).0;
             let last = drive_clearance(site, &stage, &spot).0;
             (first.min(last) >= DRIVE_CLEARANCE_M).then(|| {
@@ -116,6 +112,15 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
             }
         })
         .collect())
+}
+
+/// The pose `d` (m) behind `spot` on its heading, facing the same way.
+fn staging_pose(spot: &BasePose, d: f64) -> BasePose {
+    BasePose {
+        x_m: spot.x_m - d * spot.yaw_rad.cos(),
+        y_m: spot.y_m - d * spot.yaw_rad.sin(),
+        yaw_rad: spot.yaw_rad,
+    }
 }
 
 /// The poses of the base's motion from `from` to `to` (`sim`'s base and a differential
@@ -255,11 +260,7 @@ mod tests {
         };
         let (direct, what, _) = drive_clearance(&site, &side, &spot);
         assert!(direct < DRIVE_CLEARANCE_M, "{direct} {what}");
-        let stage = BasePose {
-            x_m: spot.x_m - STAGING_DISTANCES_M[0] * spot.yaw_rad.cos(),
-            y_m: spot.y_m - STAGING_DISTANCES_M[0] * spot.yaw_rad.sin(),
-            yaw_rad: spot.yaw_rad,
-        };
+        let stage = staging_pose(&spot, STAGING_DISTANCES_M[0]);
         let (last, what, _) = drive_clearance(&site, &stage, &spot);
         assert!(last >= DRIVE_CLEARANCE_M, "{last} {what}");
     }

@@ -35,37 +35,19 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
         .clone()
         .allowing("tool", "stored_rod_handle")
         .allowing("arm_wrist3_link", "stored_rod_handle");
-    let mut first_refusal = None;
-    for factor in PREGRASP_FACTORS {
-        let pre = poses::along_own_z(&grasp, -task.config.pregrasp_m * factor);
-        let branches = match p.ik_goals(lift, &pre, &q0) {
-            Ok(b) => b,
-            Err(stop) => {
-                first_refusal.get_or_insert(stop);
-                continue;
-            }
-        };
-        for q_pre in branches {
-            let attempt = p
-                .plan_move(&world, lift, &q0, &q_pre, "rack pre-grasp")
-                .and_then(|to_pre| {
-                    let line = p.line_waypoints(lift, &q_pre, &grasp)?;
-                    let approach =
-                        p.plan(&grasp_world, lift, &q_pre, &line, "rack grasp approach")?;
-                    Ok(vec![
-                        p.arm_action(&to_pre, "arm to the rack pre-grasp"),
-                        p.arm_action(&approach, "grasp the rod"),
-                    ])
-                });
-            match attempt {
-                Ok(actions) => return Ok(actions),
-                Err(stop) => {
-                    first_refusal.get_or_insert(stop);
-                }
-            }
-        }
-    }
-    Err(first_refusal.unwrap_or_else(|| Stop::refused("unreachable", "no rack pre-grasp")))
+    let pre_grasps: Vec<_> = PREGRASP_FACTORS
+        .iter()
+        .map(|f| poses::along_own_z(&grasp, -task.config.pregrasp_m * f))
+        .collect();
+    p.first_plannable(lift, &pre_grasps, &q0, |q_pre| {
+        let to_pre = p.plan_move(&world, lift, &q0, q_pre, "rack pre-grasp")?;
+        let line = p.line_waypoints(lift, q_pre, &grasp)?;
+        let approach = p.plan(&grasp_world, lift, q_pre, &line, "rack grasp approach")?;
+        Ok(vec![
+            p.arm_action(&to_pre, "arm to the rack pre-grasp"),
+            p.arm_action(&approach, "grasp the rod"),
+        ])
+    })
 }
 
 fn finish(task: &mut Task) -> Result<Next, Stop> {

@@ -37,34 +37,22 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
     let (point, direction) = p.wire_prior_in_base()?;
     let along = direction.normalize();
     let tool0_from_camera = task.robot.tool0_from_camera_now();
+    let tools = LOOK_ALTERNATIVES
+        .iter()
+        .map(|&(shift_m, extra_m)| {
+            task.wire
+                .look_pose_from(
+                    &(point + along * shift_m, direction),
+                    &p.arm_base_point(lift),
+                    task.wire.params().standoff_m + extra_m,
+                )
+                .map(|camera| camera * tool0_from_camera.inverse())
+                .map_err(|e| Stop::failed("bad_geometry", e.to_string()))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
     let world = p.world(lift)?;
-    let mut first_refusal = None;
-    for (shift_m, extra_m) in LOOK_ALTERNATIVES {
-        let looked_at = (point + along * shift_m, direction);
-        let camera = task
-            .wire
-            .look_pose_from(
-                &looked_at,
-                &p.arm_base_point(lift),
-                task.wire.params().standoff_m + extra_m,
-            )
-            .map_err(|e| Stop::failed("bad_geometry", e.to_string()))?;
-        let tool = camera * tool0_from_camera.inverse();
-        let goals = match p.ik_goals(lift, &tool, &q) {
-            Ok(g) => g,
-            Err(stop) => {
-                first_refusal.get_or_insert(stop);
-                continue;
-            }
-        };
-        for goal in goals {
-            match p.plan_move(&world, lift, &q, &goal, "look at the wire") {
-                Ok(plan) => return Ok(vec![p.arm_action(&plan, "camera level with the wire")]),
-                Err(stop) => {
-                    first_refusal.get_or_insert(stop);
-                }
-            }
-        }
-    }
-    Err(first_refusal.unwrap_or_else(|| Stop::refused("unreachable", "no look at the wire")))
+    p.first_plannable(lift, &tools, &q, |goal| {
+        let plan = p.plan_move(&world, lift, &q, goal, "look at the wire")?;
+        Ok(vec![p.arm_action(&plan, "camera level with the wire")])
+    })
 }
