@@ -437,12 +437,18 @@ pub fn run_handle_trial(
         depth.normal(&rays, camera.fx, u as usize, v as usize)
     };
     let robot_in_camera = camera_from_world * robot_point;
+    let window = control::perception::handle::ViewWindow {
+        camera: &camera,
+        roi: &roi,
+        edge_px: 3.0 * protocol.wire.stride_px.max(1) as f64,
+    };
     let fitted = control::perception::handle::fit_handle(
         &cloud.points,
         normal_of,
         model,
         &protocol.wire.ransac,
         &robot_in_camera,
+        &window,
     );
     Ok(fitted.and_then(|h| {
         let contrast =

@@ -6,8 +6,10 @@ use control::perception::PerceptionError;
 use control::perception::WIRE_RADIUS_M;
 use control::perception::confidence::ConfidenceThresholds;
 use control::perception::cylinder::{Cylinder, RansacParams, fit_cylinder};
-use control::perception::handle::{HandleModel, fit_handle};
-use control::perception::point_cloud::{CameraModel, RayTable, to_point_cloud2, wrist_nominal};
+use control::perception::handle::{CutEnd, HandleEstimate, HandleModel, ViewWindow, fit_handle};
+use control::perception::point_cloud::{
+    CameraModel, DepthImage, RayTable, to_point_cloud2, wrist_nominal,
+};
 use control::perception::roi::{PixelRoi, extract_roi};
 use control::perception::synthetic::{
     CylinderShape, NoiseModel, Scene, WireScene, render_depth, wrist_rays,
@@ -284,13 +286,12 @@ fn refuses_when_captures_disagree_or_quality_is_poor() {
     );
 }
 
-#[test]
-fn handle_centre_and_axis() {
-    let cam = wrist_nominal();
+/// The default handle at `centre` along `direction`, before a floor 0.9 m away.
+fn handle_scene(centre: Point3<f64>, direction: Vector3<f64>) -> (CylinderShape, Scene) {
     let model = HandleModel::default();
     let handle = CylinderShape {
-        centre: Point3::new(0.01, -0.02, 0.42),
-        direction: Vector3::new(0.9, 0.3, 0.2).normalize(),
+        centre,
+        direction,
         radius_m: model.radius_m,
         half_length_m: 0.5 * model.length_m,
     };
@@ -299,25 +300,54 @@ fn handle_centre_and_axis() {
         boxes: vec![],
         planes: vec![(Point3::new(0.0, 0.0, 0.9), -Vector3::z())],
     };
+    (handle, scene)
+}
+
+/// Renders `scene` (depth noise from `seed`) and fits the handle model to `roi` of it, seen
+/// through that ROI; with the depth image.
+fn fit_rendered_handle(
+    scene: &Scene,
+    roi: &PixelRoi,
+    seed: u64,
+) -> (DepthImage, Result<HandleEstimate, PerceptionError>) {
+    let cam = wrist_nominal();
     let depth = render_depth(
-        &scene,
+        scene,
         rays(),
         &NoiseModel::default(),
-        &mut SplitMix64::new(9),
+        &mut SplitMix64::new(seed),
     );
-    let roi = PixelRoi::full(&cam, 0.2, 0.7);
-    let cloud = extract_roi(&depth, rays(), &roi, 2);
+    let cloud = extract_roi(&depth, rays(), roi, 2);
     let normal_of = |k: usize| {
         let (u, v) = *cloud.pixels.get(k)?;
         depth.normal(rays(), cam.fx, u as usize, v as usize)
     };
-    let estimate = match fit_handle(
+    let window = ViewWindow {
+        camera: &cam,
+        roi,
+        edge_px: 6.0,
+    };
+    let result = fit_handle(
         &cloud.points,
         normal_of,
-        &model,
+        &HandleModel::default(),
         &RansacParams::default(),
         &Point3::origin(),
-    ) {
+        &window,
+    );
+    (depth, result)
+}
+
+#[test]
+fn handle_centre_and_axis() {
+    let cam = wrist_nominal();
+    let model = HandleModel::default();
+    let (handle, scene) = handle_scene(
+        Point3::new(0.01, -0.02, 0.42),
+        Vector3::new(0.9, 0.3, 0.2).normalize(),
+    );
+    let roi = PixelRoi::full(&cam, 0.2, 0.7);
+    let estimate = match fit_rendered_handle(&scene, &roi, 9).1 {
         Ok(e) => e,
         Err(e) => panic!("{e}"),
     };
@@ -325,6 +355,80 @@ fn handle_centre_and_axis() {
     assert!(centre_error < 0.003, "handle centre error {centre_error} m");
     assert!(estimate.pose.axis.dot(&handle.direction).abs() > 0.5f64.to_radians().cos());
     assert!((estimate.measured_length_m - model.length_m).abs() < 0.01);
+}
+
+/// A handle whose one end runs out of the image (or of the ROI) is placed from the end that
+/// is seen and the model length; its midpoint would be off by half the cut. Both ends cut
+/// refuse.
+#[test]
+fn a_handle_cut_by_the_view_is_placed_from_the_end_it_sees() {
+    let cam = wrist_nominal();
+    let model = HandleModel::default();
+    let fit = |centre: Point3<f64>, roi: PixelRoi| {
+        fit_rendered_handle(&handle_scene(centre, Vector3::x()).1, &roi, 11).1
+    };
+    let full = PixelRoi::full(&cam, 0.2, 0.7);
+    // 0.42 m away the image spans about +-0.15 m: a handle centred 6 cm (or -6 cm) off the
+    // optical axis loses 3 cm of one end beyond the image's edge, at 4.5 cm about 1.5 cm
+    // (within the length tolerance: its midpoint would be 7 mm off).
+    for (x, cut) in [
+        (0.045, CutEnd::High),
+        (0.06, CutEnd::High),
+        (-0.06, CutEnd::Low),
+    ] {
+        let centre = Point3::new(x, 0.0, 0.42);
+        let estimate = match fit(centre, full) {
+            Ok(e) => e,
+            Err(e) => panic!("{e}"),
+        };
+        let seen_short = model.length_m - estimate.measured_length_m;
+        assert!(seen_short > 0.01, "only {seen_short} m cut");
+        let cut = if estimate.fit.cylinder.direction.x < 0.0 {
+            // Low and high are along the fitted axis, whose sign is the fit's: flip with it.
+            match cut {
+                CutEnd::High => CutEnd::Low,
+                CutEnd::Low => CutEnd::High,
+                CutEnd::None => CutEnd::None,
+            }
+        } else {
+            cut
+        };
+        assert_eq!(estimate.cut, cut);
+        let error = (estimate.pose.point - centre).norm();
+        assert!(
+            error < 0.003,
+            "centre {error} m off with {seen_short} m cut"
+        );
+    }
+    // A ROI around a prior 4 cm off cuts the other end the same way.
+    let roi = PixelRoi {
+        u_min: 0,
+        v_min: 0,
+        u_max: (cam.cx + cam.fx * 0.09 / 0.42) as usize,
+        v_max: cam.height as usize,
+        z_min_m: 0.2,
+        z_max_m: 0.7,
+    };
+    let centre = Point3::new(0.0, 0.0, 0.42);
+    match fit(centre, roi) {
+        Ok(e) => {
+            assert_ne!(e.cut, CutEnd::None);
+            let error = (e.pose.point - centre).norm();
+            assert!(error < 0.003, "centre {error} m off");
+        }
+        Err(e) => panic!("{e}"),
+    }
+    // Both ends cut: nothing places the centre.
+    let narrow = PixelRoi {
+        u_min: (cam.cx - cam.fx * 0.1 / 0.42) as usize,
+        u_max: (cam.cx + cam.fx * 0.1 / 0.42) as usize,
+        ..full
+    };
+    let result = fit(centre, narrow);
+    assert!(
+        matches!(result, Err(PerceptionError::HandleCut { .. })),
+        "{result:?}"
+    );
 }
 
 #[test]
@@ -528,24 +632,7 @@ fn partial_handle_view_is_refused_and_messages_round_trip() {
         cylinders: vec![handle],
         ..Scene::default()
     };
-    let depth = render_depth(
-        &scene,
-        rays(),
-        &NoiseModel::default(),
-        &mut SplitMix64::new(1),
-    );
-    let cloud = extract_roi(&depth, rays(), &PixelRoi::full(&cam, 0.2, 0.7), 2);
-    let normal_of = |k: usize| {
-        let (u, v) = *cloud.pixels.get(k)?;
-        depth.normal(rays(), cam.fx, u as usize, v as usize)
-    };
-    let result = fit_handle(
-        &cloud.points,
-        normal_of,
-        &model,
-        &RansacParams::default(),
-        &Point3::origin(),
-    );
+    let (depth, result) = fit_rendered_handle(&scene, &PixelRoi::full(&cam, 0.2, 0.7), 1);
     assert!(
         matches!(result, Err(PerceptionError::HandleLength { .. })),
         "{result:?}"

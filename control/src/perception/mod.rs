@@ -94,6 +94,16 @@ pub enum PerceptionError {
         /// Allowed difference.
         tolerance_m: f64,
     },
+    /// The view cuts the handle at both ends: its centre cannot be placed.
+    #[error(
+        "the view cuts the handle at both ends ({measured_m:.4} m of {model_m:.4} m seen): look from farther away"
+    )]
+    HandleCut {
+        /// Seen extent along the axis.
+        measured_m: f64,
+        /// Model length.
+        model_m: f64,
+    },
     /// The estimate's confidence is below the acceptance threshold.
     #[error("refused: confidence {score:.3} < {threshold:.3} (limited by {limiting})")]
     LowConfidence {

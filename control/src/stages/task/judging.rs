@@ -50,7 +50,7 @@ use super::steps::{
     close_clamp, grasp_handle, grasp_rack, look_handle, look_rack, look_wire, recalibrate,
 };
 use crate::perception::PerceptionError;
-use crate::perception::handle::fit_handle;
+use crate::perception::handle::{CutEnd, ViewWindow, fit_handle};
 use crate::perception::point_cloud::to_point_cloud2;
 use crate::perception::rack;
 use crate::perception::roi::{PixelRoi, extract_roi};
@@ -81,15 +81,21 @@ pub const MAX_VERTICAL_SWAY_FRACTION: f64 = 0.5;
 pub const SWAY_CLEARANCE_M: f64 = 0.01;
 /// The stored rod's measured handle axis may be this far off the vertical (rad): 3 deg.
 pub const RACK_AXIS_TOLERANCE_RAD: f64 = 3.0 * std::f64::consts::PI / 180.0;
-/// The handle's ROI spans the handle's length plus this at each end (m).
-const HANDLE_ROI_END_M: f64 = 0.03;
+/// The handle's ROI spans the handle's length plus this at each end (m): the rack's prior
+/// comes from the survey, measured up to 5 cm off at the look; a ROI end inside the handle
+/// would leave the other end only to place it ([`ViewWindow`]).
+const HANDLE_ROI_END_M: f64 = 0.08;
 /// Farthest depth kept for the empty rack's fit (m): the rack is seen from the handle
 /// look's 0.45 m stand-off.
 const RACK_ROI_DEPTH_M: f64 = 1.5;
 /// The empty rack's captures agree within this (m): a fifth of the rod's 1 cm seat.
 pub const RACK_MAX_DISAGREEMENT_M: f64 = 0.002;
-/// The handle's ROI margin (m at the handle).
-const HANDLE_ROI_MARGIN_M: f64 = 0.05;
+/// A handle end within this many sampling strides of the ROI's border may be the view's
+/// edge, not the handle's ([`ViewWindow`]).
+const HANDLE_EDGE_STRIDES: f64 = 3.0;
+/// The handle's ROI margin (m at the handle): the bar's radius and the prior's error (see
+/// [`HANDLE_ROI_END_M`]).
+const HANDLE_ROI_MARGIN_M: f64 = 0.08;
 /// The handle's ROI depth margin (m).
 const HANDLE_ROI_DEPTH_M: f64 = 0.1;
 
@@ -526,7 +532,8 @@ impl Task {
         let config = &self.config;
         let robot_point = self.planner().arm_base_point(lift);
         let half = robot::grounding_rod::HANDLE_LENGTH_M * 0.5;
-        let mut fits: Vec<(Point3<f64>, Vector3<f64>, f64)> = Vec::new();
+        // (centre, axis, placed from one end because the view cut the other)
+        let mut fits: Vec<(Point3<f64>, Vector3<f64>, bool)> = Vec::new();
         let mut reasons = Vec::new();
         let mut cloud = Vec::new();
         for c in &self.memory.captures {
@@ -545,12 +552,18 @@ impl Task {
                         let (u, v) = *points.pixels.get(k)?;
                         depth.normal(&rays, camera.fx, u as usize, v as usize)
                     };
+                    let window = ViewWindow {
+                        camera: &camera,
+                        roi: &roi,
+                        edge_px: HANDLE_EDGE_STRIDES * config.wire.stride_px.max(1) as f64,
+                    };
                     fit_handle(
                         &points.points,
                         normal_of,
                         &config.handle,
                         &config.wire.ransac,
                         &(camera_from_base * robot_point),
+                        &window,
                     )
                     .map_err(|e| e.to_string())
                     .map(|h| (h, points))
@@ -569,7 +582,7 @@ impl Task {
                     fits.push((
                         t * h.pose.point,
                         t.rotation * h.pose.axis,
-                        h.fit.rms_residual_m,
+                        h.cut != CutEnd::None,
                     ));
                     cloud.extend(
                         h.fit
@@ -702,8 +715,13 @@ impl Task {
             step,
             "",
             format!(
-                "handle at ({:.4}, {:.4}, {:.4}) m in base_link from {} captures, disagreement {:.2} mm, {:.1} mm from the prior",
-                centre.x, centre.y, centre.z, fits.len(), disagreement * 1e3,
+                "handle at ({:.4}, {:.4}, {:.4}) m in base_link from {} captures{}, disagreement {:.2} mm, {:.1} mm from the prior",
+                centre.x, centre.y, centre.z, fits.len(),
+                match fits.iter().filter(|f| f.2).count() {
+                    0 => String::new(),
+                    k => format!(" ({k} placed from the end they saw: the view cut the other)"),
+                },
+                disagreement * 1e3,
                 (centre - centre_prior).norm() * 1e3
             ),
         );
