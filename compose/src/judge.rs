@@ -291,6 +291,7 @@ impl Truth {
             model: model.clone(),
             margin_m: 0.0,
             self_margin_m: 0.0,
+            arm_body_margin_m: 0.0,
             ..ArmCollisionModel::nominal()
         };
         Self {

@@ -310,6 +310,12 @@ pub struct ArmCollisionModel {
     /// are the robot's own geometry, known to the millimetre through the joint encoders and
     /// the lift's, and the capsules and boxes already enclose the parts.
     pub self_margin_m: f64,
+    /// Required clearance between the arm's links and the lift plate, mast and chassis it is
+    /// bolted onto (m). Default 0.005: only the encoders of the joints between them and the
+    /// arm's kinematic error (about a millimetre) separate the model from the truth. A held
+    /// rod keeps [`Self::self_margin_m`]: it may sit up to the grasp's 5 mm off in the
+    /// gripper.
+    pub arm_body_margin_m: f64,
     /// What the tool carries (checked against the world and the arm's links up to wrist 2).
     /// Default none.
     pub payload: Payload,
@@ -326,6 +332,7 @@ impl ArmCollisionModel {
             tool_radius_m: 0.05,
             margin_m: 0.02,
             self_margin_m: 0.01,
+            arm_body_margin_m: 0.005,
             payload: Payload::default(),
         }
     }
@@ -397,8 +404,10 @@ impl ArmCollisionModel {
         lift_m: f64,
         q_rad: &[f64; 6],
     ) -> (f64, &'static str, String) {
-        let (outside, own) = self.clearances(world, lift_m, q_rad);
-        if own.0 < outside.0 { own } else { outside }
+        let (outside, own, body) = self.clearances(world, lift_m, q_rad);
+        [own, body]
+            .into_iter()
+            .fold(outside, |a, b| if b.0 < a.0 { b } else { a })
     }
 
     /// The pair that falls shortest of its required clearance ([`Self::margin_m`] from the
@@ -411,53 +420,61 @@ impl ArmCollisionModel {
         lift_m: f64,
         q_rad: &[f64; 6],
     ) -> Option<(f64, &'static str, String)> {
-        let (outside, own) = self.clearances(world, lift_m, q_rad);
-        self.short_of_margins(outside, own)
+        let (outside, own, body) = self.clearances(world, lift_m, q_rad);
+        self.short_of_margins(outside, own, body)
     }
 
     fn short_of_margins(
         &self,
         outside: (f64, &'static str, String),
         own: (f64, &'static str, String),
+        body: (f64, &'static str, String),
     ) -> Option<(f64, &'static str, String)> {
-        let short_outside = self.margin_m - outside.0;
-        let short_own = self.self_margin_m - own.0;
-        if short_outside <= 0.0 && short_own <= 0.0 {
-            None
-        } else if short_own > short_outside {
-            Some(own)
-        } else {
-            Some(outside)
-        }
+        [
+            (self.margin_m - outside.0, outside),
+            (self.self_margin_m - own.0, own),
+            (self.arm_body_margin_m - body.0, body),
+        ]
+        .into_iter()
+        .filter(|(short, _)| *short > 0.0)
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, pair)| pair)
     }
 
-    /// The smallest clearance from the world and the smallest within the robot (its links
-    /// and its payload), each `(clearance, link, obstacle)`.
+    /// The smallest clearance from the world, the smallest within the robot (links with
+    /// links, the payload with the links and the body) and the smallest of the arm's links
+    /// to the body it is bolted onto, each `(clearance, link, obstacle)`.
+    #[allow(clippy::type_complexity)]
     fn clearances(
         &self,
         world: &CollisionWorld,
         lift_m: f64,
         q_rad: &[f64; 6],
-    ) -> ((f64, &'static str, String), (f64, &'static str, String)) {
+    ) -> (
+        (f64, &'static str, String),
+        (f64, &'static str, String),
+        (f64, &'static str, String),
+    ) {
         let capsules = self.capsules(lift_m, q_rad);
         let payload = self.payload_capsules(lift_m, q_rad);
         let mut best = (f64::INFINITY, "", String::new());
         let bodies = capsules
             .iter()
             .enumerate()
-            .map(|(k, c)| (ARM_LINK_NAMES[k], k == 0, c))
-            .chain(payload.iter().map(|(name, c)| (*name, false, c)));
+            .map(|(k, c)| (ARM_LINK_NAMES[k], k == 0, true, c))
+            .chain(payload.iter().map(|(name, c)| (*name, false, false, c)));
         let mut own = (f64::INFINITY, "", String::new());
-        for (name, bolted, capsule) in bodies {
+        let mut body = (f64::INFINITY, "", String::new());
+        for (name, bolted, link, capsule) in bodies {
             for (obstacle, b) in &world.boxes {
                 if bolted || world.is_allowed(name, obstacle) {
                     continue; // the shoulder column is bolted to the platform
                 }
                 let c = capsule_box(capsule, b);
-                let slot = if ROBOT_BODY_NAMES.contains(&obstacle.as_str()) {
-                    &mut own
-                } else {
-                    &mut best
+                let slot = match (ROBOT_BODY_NAMES.contains(&obstacle.as_str()), link) {
+                    (true, true) => &mut body,
+                    (true, false) => &mut own,
+                    (false, _) => &mut best,
                 };
                 if c < slot.0 {
                     *slot = (c, name, obstacle.clone());
@@ -488,7 +505,7 @@ impl ArmCollisionModel {
                 }
             }
         }
-        (best, own)
+        (best, own, body)
     }
 
     /// Checks every `stride`-th sample (and the last) of a joint trajectory at a fixed lift.
@@ -509,9 +526,9 @@ impl ArmCollisionModel {
             if k % stride.max(1) != 0 && k + 1 != n {
                 continue;
             }
-            let (outside, own) = self.clearances(world, lift_m, q);
-            let clearance = outside.0.min(own.0);
-            if let Some((clearance, link, obstacle)) = self.short_of_margins(outside, own) {
+            let (outside, own, body) = self.clearances(world, lift_m, q);
+            let clearance = outside.0.min(own.0).min(body.0);
+            if let Some((clearance, link, obstacle)) = self.short_of_margins(outside, own, body) {
                 return Err(MotionError::Collision {
                     sample: k,
                     link,
@@ -575,5 +592,32 @@ mod tests {
         let raised = CollisionWorld::robot_body(&arm.model, 1.0);
         let (c, link, other) = arm.clearance(&raised, 1.0, &q);
         assert!(c > arm.margin_m, "{link} vs {other}: {c}");
+    }
+
+    #[test]
+    fn each_pair_is_held_to_its_own_margin() {
+        let arm = ArmCollisionModel::nominal();
+        let pair = |c: f64, link: &'static str, other: &str| (c, link, other.to_owned());
+        let far = || pair(1.0, "", "");
+        // An arm link 7 mm from the lift plate keeps the 5 mm it needs ...
+        let link_to_plate = pair(0.007, "arm_upperarm_link", "lift_plate");
+        assert_eq!(arm.short_of_margins(far(), far(), link_to_plate), None);
+        // ... a held rod 7 mm from it does not (1 cm), nor a site obstacle at 15 mm (2 cm).
+        let rod_to_plate = pair(0.007, "rod_shaft", "lift_plate");
+        assert_eq!(
+            arm.short_of_margins(far(), rod_to_plate.clone(), far()),
+            Some(rod_to_plate)
+        );
+        let near_rack = pair(0.015, "tool", "rack_post");
+        assert_eq!(
+            arm.short_of_margins(near_rack.clone(), far(), far()),
+            Some(near_rack.clone())
+        );
+        // The pair farthest short of its margin is the one reported.
+        let link_grazing = pair(-0.002, "arm_upperarm_link", "lift_plate");
+        assert_eq!(
+            arm.short_of_margins(near_rack, far(), link_grazing.clone()),
+            Some(link_grazing)
+        );
     }
 }

@@ -811,9 +811,12 @@ impl Planner<'_> {
             self.check_lift_move(&q, lift, look_lift)?;
             actions.push(Action::lift(lift, look_lift, "lift to the handle"));
         }
-        let goal = self.ik_goal(look_lift, &tool, &q_look)?;
+        // The arm's other branches where the nearest would swing the upper arm onto the
+        // lift plate.
         let world = self.world(look_lift)?;
-        let plan = self.plan_move(&world, look_lift, &q, &goal, "look at the handle")?;
+        let plan = self.first_plannable(look_lift, &[tool], &q_look, |goal| {
+            self.plan_move(&world, look_lift, &q, goal, "look at the handle")
+        })?;
         actions.push(self.arm_action(&plan, "camera level with the handle"));
         Ok(actions)
     }
