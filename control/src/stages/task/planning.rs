@@ -64,6 +64,9 @@ pub const LIFT_CHECK_STEP_M: f64 = 0.05;
 /// A straight line refuses when consecutive via points jump by more than this in a joint
 /// (rad): the IK changed branch.
 const LINE_BRANCH_JUMP_RAD: f64 = 0.3;
+/// A straight-line detour must end this close to the move's goal configuration in every
+/// joint (rad): the same IK branch, not merely the same tool pose.
+const LINE_END_TOLERANCE_RAD: f64 = 1e-3;
 
 /// The arm's IK and collision model (built once with the stage).
 #[derive(Debug)]
@@ -345,7 +348,8 @@ impl Planner<'_> {
     }
 
     /// A checked joint-space move from `q0` to the configuration `goal_q`: directly when that
-    /// is collision-free, else along the straight tool line (every [`DETOUR_LINE_STEP_M`]),
+    /// is collision-free, else along the straight tool line (every [`DETOUR_LINE_STEP_M`],
+    /// when it ends in `goal_q`'s branch),
     /// else through detours lifted above the goal, or the start and the goal
     /// ([`DETOUR_RISE_M`] and twice that), else through detours that carry the tool out
     /// from the arm's axis at the start and the goal ([`DETOUR_OUT_M`], so that a held rod
@@ -368,8 +372,16 @@ impl Planner<'_> {
         };
         let start = self.base_from_tool0(lift_m, q0);
         let goal = self.base_from_tool0(lift_m, goal_q);
-        // The tool along the straight line (the held rod keeps its attitude).
+        // The tool along the straight line (the held rod keeps its attitude), when the line
+        // ends in the goal's configuration: another branch at the same pose would leave the
+        // arm where the next step's plan does not start.
         if let Ok(line) = self.line_waypoints_every(lift_m, q0, &goal, DETOUR_LINE_STEP_M)
+            && line.last().is_some_and(|end| {
+                (0..6)
+                    .map(|j| (end[j] - goal_q[j]).abs())
+                    .fold(0.0, f64::max)
+                    <= LINE_END_TOLERANCE_RAD
+            })
             && let Ok(plan) = self.plan(world, lift_m, q0, &line, what)
         {
             return Ok(plan);
@@ -532,6 +544,36 @@ impl Planner<'_> {
         )
         .map_err(|e| Stop::refused("unreachable", format!("{what}: {e}")))?;
         Ok((choice.lift_m, choice.q_rad))
+    }
+
+    /// The lift that puts `base_from_tool0` `height_m` above the arm base (within the lift's
+    /// travel), with the arm's configuration there nearest `seed`.
+    ///
+    /// # Errors
+    /// `unreachable` when the arm does not reach it there, or only near a singularity.
+    pub fn lift_for_height(
+        &self,
+        base_from_tool0: &Isometry3<f64>,
+        height_m: f64,
+        seed: &[f64; 6],
+        what: &str,
+    ) -> Result<(f64, [f64; 6]), Stop> {
+        let model = self.model();
+        let limit = &model.lift_limit;
+        let lift = (base_from_tool0.translation.z - self.arm_base_point(0.0).z - height_m)
+            .clamp(limit.position_min, limit.position_max);
+        let target = model.arm_base_from_base(lift) * base_from_tool0;
+        match self.task.arm.ik.nearest(&target, seed) {
+            Ok(solution) if !solution.near_singular => Ok((lift, solution.q_rad)),
+            Ok(_) => Err(Stop::refused(
+                "unreachable",
+                format!("{what}: near a singularity at lift {lift:.3} m"),
+            )),
+            Err(e) => Err(Stop::refused(
+                "unreachable",
+                format!("{what} at lift {lift:.3} m: {e}"),
+            )),
+        }
     }
 
     // ------------------------------------------------------------ priors and look poses

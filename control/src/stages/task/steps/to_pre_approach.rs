@@ -1,7 +1,9 @@
 //! `to_pre_approach` (hang): the arm to the pre-approach configuration of the hang lift,
 //! executed at the look lift (the hook [`TaskConfig::approach_m`](crate::stages::task::TaskConfig::approach_m)
 //! behind the wire and above it), then the lift lowers the hook to the wire's height. The
-//! approach itself must be plannable before committing. A swinging wire's band widens the
+//! approach itself must be plannable before committing, with [`APPROACH_REACH_MARGIN_M`]
+//! of reach to spare; where it is not at the comfortable lift, lower tool heights
+//! ([`HANG_TOOL_HEIGHTS_M`]) reach farther out. A swinging wire's band widens the
 //! conductors' clearance; the pre-approach stands back by as much more.
 
 use nalgebra::Isometry3;
@@ -21,6 +23,18 @@ pub(crate) const STEP: StepDef = StepDef {
     finish: next_in_flow,
 };
 
+/// Heights of `tool0` above the arm base tried in turn for the hang (m): the comfortable
+/// half-bent arm first ([`Planner::comfortable_lift`](crate::stages::task::planning::Planner::comfortable_lift)),
+/// then lower, where the arm reaches farther out (the stretched arm reaches farthest with
+/// the wrist level with the shoulder): a wire a few cm farther from the working spot than
+/// the site's design.
+pub(crate) const HANG_TOOL_HEIGHTS_M: [f64; 2] = [0.3, 0.15];
+/// The approach line must be able to go on this far beyond the hook (m): the arm then reaches
+/// the hook with margin for the few millimetres by which the reached pre-approach differs
+/// from the planned one (at the edge of the reach, they decide whether the line ends in the
+/// arm's branch).
+pub(crate) const APPROACH_REACH_MARGIN_M: f64 = 0.03;
+
 fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
     let p = task.planner();
     let q = p.q()?;
@@ -34,20 +48,61 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
     // clear of the swinging wire.
     let approach_m = task.config.approach_m
         + (task.memory.conductor_sway_margin_m - CONDUCTOR_SWAY_MARGIN_M).max(0.0);
+    let beyond =
+        poses::tool0_for_hook(&(hook * Isometry3::translation(APPROACH_REACH_MARGIN_M, 0.0, 0.0)));
+    let world = p.world(lift)?;
+    let mut lifts = vec![p.comfortable_lift(&tool_hang, &q, "hang pose")];
+    lifts.extend(
+        HANG_TOOL_HEIGHTS_M
+            .iter()
+            .map(|&h| p.lift_for_height(&tool_hang, h, &q, "hang pose")),
+    );
+    // Each lift once (the lift's travel clamps some heights to the same one).
+    let mut first_refusal = None;
+    let mut candidates: Vec<(f64, [f64; 6])> = Vec::new();
+    for lift_and_q in lifts {
+        match lift_and_q {
+            Ok((l, q_hang)) if !candidates.iter().any(|(c, _)| (c - l).abs() < 1e-3) => {
+                candidates.push((l, q_hang));
+            }
+            Ok(_) => {}
+            Err(stop) => {
+                first_refusal.get_or_insert(stop);
+            }
+        }
+    }
     let pre_hook = hook * Isometry3::translation(-approach_m, 0.0, 0.0);
     let tool_pre = poses::tool0_for_hook(&pre_hook);
-    let (hang_lift, q_hang) = p.comfortable_lift(&tool_hang, &q, "hang pose")?;
-    // The pre-approach configuration for the hang lift, executed first at the look lift ...
-    let q_pre = p.ik_goal(hang_lift, &tool_pre, &q_hang)?;
-    let world = p.world(lift)?;
-    let to_pre = p.plan_move(&world, lift, &q, &q_pre, "arm to the pre-approach")?;
-    // ... then the lift lowers the hook to the wire's height.
-    p.check_lift_move(&q_pre, lift, hang_lift)?;
-    let line = p.line_waypoints(hang_lift, &q_pre, &tool_hang)?;
-    let world_hang = p.world(hang_lift)?.allowing("rod_head", TARGET_WIRE);
-    p.plan(&world_hang, hang_lift, &q_pre, &line, "hook approach")?;
-    Ok(vec![
-        p.arm_action(&to_pre, "arm to the pre-approach"),
-        Action::lift(lift, hang_lift, "lower to the hook height"),
-    ])
+    for (hang_lift, q_hang) in candidates {
+        let attempt = (|| {
+            // The pre-approach configuration for the hang lift, executed first at the look
+            // lift ...
+            let q_pre = p.ik_goal(hang_lift, &tool_pre, &q_hang)?;
+            let to_pre = p.plan_move(&world, lift, &q, &q_pre, "arm to the pre-approach")?;
+            // ... then the lift lowers the hook to the wire's height.
+            p.check_lift_move(&q_pre, lift, hang_lift)?;
+            p.line_waypoints(hang_lift, &q_pre, &beyond)
+                .map_err(|s| Stop {
+                    text: format!(
+                        "hook approach with {APPROACH_REACH_MARGIN_M} m to spare: {}",
+                        s.text
+                    ),
+                    ..s
+                })?;
+            let line = p.line_waypoints(hang_lift, &q_pre, &tool_hang)?;
+            let world_hang = p.world(hang_lift)?.allowing("rod_head", TARGET_WIRE);
+            p.plan(&world_hang, hang_lift, &q_pre, &line, "hook approach")?;
+            Ok(vec![
+                p.arm_action(&to_pre, "arm to the pre-approach"),
+                Action::lift(lift, hang_lift, "lower to the hook height"),
+            ])
+        })();
+        match attempt {
+            Ok(actions) => return Ok(actions),
+            Err(stop) => {
+                first_refusal.get_or_insert(stop);
+            }
+        }
+    }
+    Err(first_refusal.unwrap_or_else(|| Stop::refused("unreachable", "no hang lift to plan for")))
 }
