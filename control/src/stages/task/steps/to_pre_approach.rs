@@ -1,9 +1,9 @@
 //! `to_pre_approach` (hang): the arm to the pre-approach configuration of the hang lift,
 //! executed at the look lift (the hook [`TaskConfig::approach_m`](crate::stages::task::TaskConfig::approach_m)
 //! behind the wire and above it), then the lift lowers the hook to the wire's height. The
-//! approach itself must be plannable before committing, with [`APPROACH_REACH_MARGIN_M`]
-//! of reach to spare; where it is not at the comfortable lift, lower tool heights
-//! ([`HANG_TOOL_HEIGHTS_M`]) reach farther out. A swinging wire's band widens the
+//! approach itself must be plannable before committing, preferably with
+//! [`APPROACH_REACH_MARGIN_M`] of reach to spare; where it is not at the comfortable lift,
+//! lower tool heights ([`HANG_TOOL_HEIGHTS_M`]) reach farther out. A swinging wire's band widens the
 //! conductors' clearance; the pre-approach stands back by as much more.
 
 use nalgebra::Isometry3;
@@ -29,10 +29,10 @@ pub(crate) const STEP: StepDef = StepDef {
 /// the wrist level with the shoulder): a wire a few cm farther from the working spot than
 /// the site's design.
 pub(crate) const HANG_TOOL_HEIGHTS_M: [f64; 2] = [0.3, 0.15];
-/// The approach line must be able to go on this far beyond the hook (m): the arm then reaches
-/// the hook with margin for the few millimetres by which the reached pre-approach differs
-/// from the planned one (at the edge of the reach, they decide whether the line ends in the
-/// arm's branch).
+/// The approach line should be able to go on this far beyond the hook (m): the arm then
+/// reaches the hook with margin for the few millimetres by which the reached pre-approach
+/// differs from the planned one (at the edge of the reach, they decide whether the line ends
+/// in the arm's branch). Preferred, not required: a lift with the margin is taken first.
 pub(crate) const APPROACH_REACH_MARGIN_M: f64 = 0.03;
 
 fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
@@ -73,36 +73,40 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
     }
     let pre_hook = hook * Isometry3::translation(-approach_m, 0.0, 0.0);
     let tool_pre = poses::tool0_for_hook(&pre_hook);
-    for (hang_lift, q_hang) in candidates {
-        let attempt = (|| {
-            // The pre-approach configuration for the hang lift, executed first at the look
-            // lift ...
-            let q_pre = p.ik_goal(hang_lift, &tool_pre, &q_hang)?;
-            let to_pre = p.plan_move(&world, lift, &q, &q_pre, "arm to the pre-approach")?;
-            // ... then the lift lowers the hook to the wire's height.
-            p.check_lift_move(&q_pre, lift, hang_lift)?;
-            p.line_waypoints(hang_lift, &q_pre, &beyond)
-                .map_err(|s| Stop {
-                    text: format!(
-                        "hook approach with {APPROACH_REACH_MARGIN_M} m to spare: {}",
-                        s.text
-                    ),
-                    ..s
-                })?;
-            let line = p.line_waypoints(hang_lift, &q_pre, &tool_hang)?;
-            let world_hang = p.world(hang_lift)?.allowing("rod_head", TARGET_WIRE);
-            p.plan(&world_hang, hang_lift, &q_pre, &line, "hook approach")?;
-            Ok(vec![
-                p.arm_action(&to_pre, "arm to the pre-approach"),
-                Action::lift(lift, hang_lift, "lower to the hook height"),
-            ])
-        })();
-        match attempt {
-            Ok(actions) => return Ok(actions),
-            Err(stop) => {
-                first_refusal.get_or_insert(stop);
+    // With the reach to spare first, then (as the arm's reach allows) without it.
+    let mut without_margin = None;
+    for spare in [true, false] {
+        for &(hang_lift, q_hang) in &candidates {
+            let attempt = (|| {
+                // The pre-approach configuration for the hang lift, executed first at the look
+                // lift ...
+                let q_pre = p.ik_goal(hang_lift, &tool_pre, &q_hang)?;
+                let to_pre = p.plan_move(&world, lift, &q, &q_pre, "arm to the pre-approach")?;
+                // ... then the lift lowers the hook to the wire's height.
+                p.check_lift_move(&q_pre, lift, hang_lift)?;
+                if spare {
+                    p.line_waypoints(hang_lift, &q_pre, &beyond)?;
+                }
+                let line = p.line_waypoints(hang_lift, &q_pre, &tool_hang)?;
+                let world_hang = p.world(hang_lift)?.allowing("rod_head", TARGET_WIRE);
+                p.plan(&world_hang, hang_lift, &q_pre, &line, "hook approach")?;
+                Ok(vec![
+                    p.arm_action(&to_pre, "arm to the pre-approach"),
+                    Action::lift(lift, hang_lift, "lower to the hook height"),
+                ])
+            })();
+            match attempt {
+                Ok(actions) => return Ok(actions),
+                // The refusal without the margin is the one that says why.
+                Err(stop) if !spare => {
+                    without_margin.get_or_insert(stop);
+                }
+                Err(_) => {}
             }
         }
+    }
+    if let Some(stop) = without_margin {
+        return Err(stop);
     }
     Err(first_refusal.unwrap_or_else(|| Stop::refused("unreachable", "no hang lift to plan for")))
 }
