@@ -524,19 +524,11 @@ impl Planner<'_> {
         seed: &[f64; 6],
         what: &str,
     ) -> Result<(f64, [f64; 6]), Stop> {
-        let model = self.model();
-        let limit = &model.lift_limit;
-        let arm_base_at_zero = self.arm_base_point(0.0).z;
-        let lift = (base_from_tool0.translation.z - arm_base_at_zero - COMFORT_HEIGHT_M)
-            .clamp(limit.position_min, limit.position_max);
-        let target = model.arm_base_from_base(lift) * base_from_tool0;
-        if let Ok(solution) = self.task.arm.ik.nearest(&target, seed)
-            && !solution.near_singular
-        {
-            return Ok((lift, solution.q_rad));
+        if let Ok(found) = self.lift_for_height(base_from_tool0, COMFORT_HEIGHT_M, seed, what) {
+            return Ok(found);
         }
         let choice = choose_lift(
-            model,
+            self.model(),
             &self.task.arm.ik,
             base_from_tool0,
             seed,

@@ -73,39 +73,42 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
     }
     let pre_hook = hook * Isometry3::translation(-approach_m, 0.0, 0.0);
     let tool_pre = poses::tool0_for_hook(&pre_hook);
-    // With the reach to spare first, then (as the arm's reach allows) without it.
-    let mut without_margin = None;
-    for spare in [true, false] {
-        for &(hang_lift, q_hang) in &candidates {
-            let attempt = (|| {
-                // The pre-approach configuration for the hang lift, executed first at the look
-                // lift ...
-                let q_pre = p.ik_goal(hang_lift, &tool_pre, &q_hang)?;
-                let to_pre = p.plan_move(&world, lift, &q, &q_pre, "arm to the pre-approach")?;
-                // ... then the lift lowers the hook to the wire's height.
-                p.check_lift_move(&q_pre, lift, hang_lift)?;
-                if spare {
-                    p.line_waypoints(hang_lift, &q_pre, &beyond)?;
-                }
-                let line = p.line_waypoints(hang_lift, &q_pre, &tool_hang)?;
-                let world_hang = p.world(hang_lift)?.allowing("rod_head", TARGET_WIRE);
-                p.plan(&world_hang, hang_lift, &q_pre, &line, "hook approach")?;
-                Ok(vec![
-                    p.arm_action(&to_pre, "arm to the pre-approach"),
-                    Action::lift(lift, hang_lift, "lower to the hook height"),
-                ])
-            })();
-            match attempt {
-                Ok(actions) => return Ok(actions),
-                // The refusal without the margin is the one that says why.
-                Err(stop) if !spare => {
-                    without_margin.get_or_insert(stop);
-                }
-                Err(_) => {}
+    // Each lift planned once: the first with the reach to spare is taken, else the first
+    // plannable one (as the arm's reach allows).
+    let (mut without_margin, mut plan_refusal) = (None, None);
+    for (hang_lift, q_hang) in candidates {
+        let attempt = (|| {
+            // The pre-approach configuration for the hang lift, executed first at the look
+            // lift ...
+            let q_pre = p.ik_goal(hang_lift, &tool_pre, &q_hang)?;
+            let to_pre = p.plan_move(&world, lift, &q, &q_pre, "arm to the pre-approach")?;
+            // ... then the lift lowers the hook to the wire's height.
+            p.check_lift_move(&q_pre, lift, hang_lift)?;
+            let line = p.line_waypoints(hang_lift, &q_pre, &tool_hang)?;
+            let world_hang = p.world(hang_lift)?.allowing("rod_head", TARGET_WIRE);
+            p.plan(&world_hang, hang_lift, &q_pre, &line, "hook approach")?;
+            let spare = p.line_waypoints(hang_lift, &q_pre, &beyond).is_ok();
+            let actions = vec![
+                p.arm_action(&to_pre, "arm to the pre-approach"),
+                Action::lift(lift, hang_lift, "lower to the hook height"),
+            ];
+            Ok((actions, spare))
+        })();
+        match attempt {
+            Ok((actions, true)) => return Ok(actions),
+            Ok((actions, false)) => {
+                without_margin.get_or_insert(actions);
+            }
+            Err(stop) => {
+                plan_refusal.get_or_insert(stop);
             }
         }
     }
-    if let Some(stop) = without_margin {
+    if let Some(actions) = without_margin {
+        return Ok(actions);
+    }
+    // A lift that was planned says more than one the arm could not reach.
+    if let Some(stop) = plan_refusal {
         return Err(stop);
     }
     Err(first_refusal.unwrap_or_else(|| Stop::refused("unreachable", "no hang lift to plan for")))
