@@ -52,20 +52,45 @@ pub struct BinResult {
     pub drifted: usize,
     /// Verdict `consistent`.
     pub consistent: usize,
-    /// Verdict `cannot_tell` or `unresolved` (or no answer), after the extra views when the
-    /// first four were unresolved.
+    /// Verdict `cannot_tell` or `unresolved`, after the extra views when the first four were
+    /// unresolved.
     pub cannot_tell: usize,
+    /// Runs that ended before the check answered (the task refused earlier, e.g. a drive
+    /// that found its way blocked), by the task's reason code: not a verdict of the check.
+    pub not_checked: std::collections::BTreeMap<String, usize>,
     /// The first four views' verdict was not `drifted` or `consistent` (what the check would
     /// say without its four extra views).
     pub first_cannot_tell: usize,
     /// The first four views were `unresolved`, and the check took four more.
     pub extended: usize,
-    /// `drifted / runs` (the detection rate; for the unbumped bin, the false-alarm rate).
+    /// `drifted / checked` (the detection rate; for the unbumped bin, the false-alarm rate),
+    /// over the runs the check answered.
     pub rate: f64,
     /// Wilson 95% interval of `rate` ([`super::stats::wilson_95`]).
     pub rate_95: (f64, f64),
     /// Whether the bin is one the goal applies to (>= 0.5 deg or >= 3 mm).
     pub goal_applies: bool,
+}
+
+impl BinResult {
+    /// Runs the check answered.
+    pub fn checked(&self) -> usize {
+        self.drifted + self.consistent + self.cannot_tell
+    }
+
+    /// The runs that never reached the check, e.g. `1 (drive_blocked)`.
+    fn not_checked_cell(&self) -> String {
+        let n: usize = self.not_checked.values().sum();
+        if n == 0 {
+            return "0".into();
+        }
+        let why: Vec<String> = self
+            .not_checked
+            .iter()
+            .map(|(code, k)| format!("{k} {code}"))
+            .collect();
+        format!("{n} ({})", why.join(", "))
+    }
 }
 
 /// Runs the experiment (module docs).
@@ -121,7 +146,13 @@ pub fn run(settings: &Settings) -> Result<()> {
                 match checks.last() {
                     Some(&"drifted") => r.drifted += 1,
                     Some(&"consistent") => r.consistent += 1,
-                    _ => r.cannot_tell += 1,
+                    Some(_) => r.cannot_tell += 1,
+                    None => {
+                        *r.not_checked
+                            .entry(run.verdict.reason_code.clone())
+                            .or_default() += 1;
+                        continue;
+                    }
                 }
                 if !matches!(checks.first(), Some(&("drifted" | "consistent"))) {
                     r.first_cannot_tell += 1;
@@ -130,12 +161,13 @@ pub fn run(settings: &Settings) -> Result<()> {
                     r.extended += 1;
                 }
             }
-            r.rate = if r.runs == 0 {
+            let checked = r.checked();
+            r.rate = if checked == 0 {
                 f64::NAN
             } else {
-                r.drifted as f64 / r.runs as f64
+                r.drifted as f64 / checked as f64
             };
-            r.rate_95 = super::stats::wilson_95(r.drifted, r.runs);
+            r.rate_95 = super::stats::wilson_95(r.drifted, checked);
             r
         })
         .collect();
@@ -145,13 +177,16 @@ pub fn run(settings: &Settings) -> Result<()> {
         "{trials} runs per bin of the `check` task (4 drift check views of the calibration \
          cabinet, 4 more when those are unresolved, wrist camera {}x{}, 9:00-15:00, mean wind \
          0-1 m/s); bump at 0.5 s in a direction drawn from the seed. Goal: >= 95 % detected at \
-         >= 0.5 deg or >= 3 mm; on unbumped runs <= 5 % false alarms and <= 5 % cannot tell.",
+         >= 0.5 deg or >= 3 mm and none of those called consistent (a miss); on unbumped runs \
+         <= 5 % false alarms and <= 5 % cannot tell. Rates are over the runs the check answered; \
+         a run refused before its check (no check) is not a verdict of the check.",
         (1280.0 * camera_scale).round(),
         (1024.0 * camera_scale).round()
     ));
     let mut t = Table::new(&[
         "bin",
         "runs",
+        "no check (refused before it)",
         "drifted",
         "consistent",
         "cannot tell",
@@ -163,17 +198,18 @@ pub fn run(settings: &Settings) -> Result<()> {
     ]);
     for b in &bins {
         let goal = if b.bin == "none" {
-            let cannot = b.cannot_tell as f64 / b.runs.max(1) as f64;
+            let cannot = b.cannot_tell as f64 / b.checked().max(1) as f64;
             match (b.rate <= 0.05, cannot <= 0.05) {
                 (true, true) => "<= 5 % false alarms, <= 5 % cannot tell: met",
                 (false, _) => "<= 5 % false alarms: NOT met",
                 (true, false) => "<= 5 % cannot tell: NOT met",
             }
         } else if b.goal_applies {
-            if b.rate >= 0.95 {
-                ">= 95 %: met"
-            } else {
-                ">= 95 %: NOT met"
+            match (b.rate >= 0.95, b.consistent) {
+                (true, 0) => ">= 95 %, no miss: met",
+                (true, _) => ">= 95 %: met; missed (consistent): NOT met",
+                (false, 0) => ">= 95 %: NOT met",
+                (false, _) => ">= 95 %, no miss: NOT met",
             }
         } else {
             "(below the goal's size)"
@@ -181,6 +217,7 @@ pub fn run(settings: &Settings) -> Result<()> {
         t.row(vec![
             b.bin.clone(),
             b.runs.to_string(),
+            b.not_checked_cell(),
             b.drifted.to_string(),
             b.consistent.to_string(),
             b.cannot_tell.to_string(),

@@ -55,6 +55,18 @@
 //! its own error (its calibration): [`DriftParams::x_sigma_rot_deg`],
 //! [`DriftParams::x_sigma_trans_mm`] per axis.
 //!
+//! **The change prior.** Where the views carry no information (in mono with [`CHECK_MOTION`],
+//! the camera's translation along its optical axis) the Gauss-Newton estimate would walk
+//! along the flat direction of the cost, and the linearised `H^-1` would not bound how far.
+//! A Gaussian prior `N(0, diag(sigma_p,R^2 I, sigma_p,t^2 I))` on `(d_theta, d_t)`
+//! ([`DriftParams::change_prior_rot_deg`] 5 deg, [`DriftParams::change_prior_trans_mm`]
+//! 20 mm, wider than any bump: ARCHITECTURE.md section 6's are 1-3 deg and 3-10 mm) adds its
+//! information to `H` and its pull to the gradient: there the estimate stays at the prior's
+//! mean and its 1-sigma at the prior's, so such a direction can neither raise a false alarm
+//! nor confirm consistency. Where the views do resolve the change it moves the estimate by
+//! about `(sigma / sigma_p)^2` of itself (below 0.1 % in RGB-D). `chi^2` counts the
+//! measurements only.
+//!
 //! Per block `b` (rotation, translation), with `s_b = sqrt(lambda_max(Sigma_d,bb) + sigma_X,b^2)`
 //! (the worst direction):
 //!
@@ -70,13 +82,25 @@
 //!   `tau_b`), i.e. at least `1 - beta` ([`DriftParams::detection`], 95%: `z = 1.645`) for
 //!   `D >= tau_b + z s_b`, the **detectable size**.
 //!
+//! - the **upper bound** of the change, `U_b = |d_b| + z s_b`, is a one-sided confidence
+//!   bound: for any true change `d` (unit direction `u`), `|d_hat| >= u^T d_hat = |d| + u^T e`
+//!   with `u^T e ~ N(0, sigma_u^2)`, `sigma_u <= s_b`, so `P(U_b < |d|) <= P(u^T e < -z s_b)
+//!   <= beta`. A check that calls the mount unmoved because `U_b` is under the target misses a
+//!   bump of the target size or more with probability at most `beta` (1 - `detection`).
+//!
 //! Verdict: **Drifted** when `|d_theta| > tau_R` or `|d_t| > tau_t` (a significant change,
-//! whatever the resolution); otherwise **CannotTell** ([`CannotTell::Unobservable`]) when a
-//! detectable size exceeds its target ([`DriftParams::target_rot_deg`] 0.5 deg,
-//! [`DriftParams::target_trans_mm`] 3 mm: the check could miss a bump that matters); otherwise
-//! **Consistent**. Refusals before that: invalid or featureless views, pure translation (no
-//! pair rotates [`crate::selfcal::SelfCalParams::min_pair_rotation_deg`]), rotations about
-//! one axis or hand/eye angles that disagree ([`crate::handeye::degeneracy`]), too few pairs.
+//! whatever the resolution); otherwise **Consistent** when both upper bounds are within their
+//! targets ([`DriftParams::target_rot_deg`] 0.5 deg, [`DriftParams::target_trans_mm`] 3 mm:
+//! the views exclude a bump that matters); otherwise **CannotTell**
+//! ([`CannotTell::Unobservable`]: the views can neither show a change nor exclude one of the
+//! target size). The decision reads the estimate the views gave, not only their design: a
+//! check whose detectable size exceeds the target is still Consistent when its estimate is
+//! small enough, which is what lets four views of an unmoved mount answer when their
+//! residuals are twice the a-priori noise (a calibration's error in `camera_info` shows as
+//! pair residuals the model counts as noise). Refusals before that: invalid or featureless views,
+//! pure translation (no pair rotates
+//! [`crate::selfcal::SelfCalParams::min_pair_rotation_deg`]), rotations about one axis or
+//! hand/eye angles that disagree ([`crate::handeye::degeneracy`]), too few pairs.
 //!
 //! # Use: against the calibration, or against a reference check
 //!
@@ -120,7 +144,9 @@
 //! size past 3 mm. Mono resolves only bumps of ~1.6 deg and more, and no translation along
 //! the optical axis (see [`CHECK_MOTION`]): it says CannotTell for smaller ones.
 
-use nalgebra::{Isometry3, Matrix3, SymmetricEigen, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{
+    Isometry3, Matrix3, Matrix6, SymmetricEigen, Translation3, UnitQuaternion, Vector3, Vector6,
+};
 
 use super::pairs::{PairRejection, RejectionCounts};
 use super::pipeline::{PairMotions, SelfCalParams, pair_motions, relative_motion};
@@ -276,12 +302,12 @@ pub struct PairNoise {
 #[derive(Debug, Clone, PartialEq)]
 pub struct DriftParams {
     /// Front end (features, matching, relative pose, smallest pair rotation). Default
-    /// [`SelfCalParams::default`] without the mono rotation-angle prior
-    /// ([`super::Steps::angle_prior`] off): the check's mono statistics
-    /// (a-priori noise, the figures above) were validated with the blind essential
-    /// estimator; with the prior the mono pairs agree better (lower chi^2, so less
-    /// inflation) while the translation along the optical axis stays as poorly determined,
-    /// and a 6-view check of an unmoved mount reported a 467 mm "drift" against a 297 mm
+    /// [`SelfCalParams::default`], with the mono rotation-angle prior
+    /// ([`super::Steps::angle_prior`]): the essential matrix is estimated with the hand
+    /// rotation's angle as a prior, so the mono pairs agree better. The translation along the
+    /// optical axis stays as poorly determined as without it; the change prior
+    /// ([`DriftParams::change_prior_trans_mm`]) keeps the estimate there, where a check
+    /// without it once reported a 467 mm "drift" of an unmoved mount against a 297 mm
     /// threshold. Use [`SelfCalParams::for_camera`] for large images.
     pub selfcal: SelfCalParams,
     /// A-priori pair noise in RGB-D. Default 0.045 deg / 0.35 mm: the per-axis RMS of the
@@ -303,7 +329,9 @@ pub struct DriftParams {
     pub x_sigma_trans_mm: f64,
     /// Largest probability of reporting a drift when the mount has not moved (default 0.05).
     pub false_alarm: f64,
-    /// Smallest probability of reporting a bump of the target size (default 0.95).
+    /// Smallest probability of reporting a bump of the target size, and the confidence of
+    /// the upper bounds that call the mount unmoved (default 0.95: a bump of the target size
+    /// is called Consistent with probability at most 5%).
     pub detection: f64,
     /// Rotation bump that must be detected, degrees (default 0.5).
     pub target_rot_deg: f64,
@@ -313,6 +341,12 @@ pub struct DriftParams {
     pub min_threshold_rot_deg: f64,
     /// Translation threshold never below this, millimetres (default 0.75).
     pub min_threshold_trans_mm: f64,
+    /// Prior 1-sigma of the mount's change, per axis, degrees (default 5: the bumps that
+    /// knock a wrist camera are 1-3 deg). A Gaussian prior on `d_theta` keeps the estimate
+    /// where the views say nothing (module docs, "the change prior").
+    pub change_prior_rot_deg: f64,
+    /// ... on `d_t`, millimetres (default 20: bumps move it 3-10 mm).
+    pub change_prior_trans_mm: f64,
     /// Fewest pairs with a camera motion (default 3: 3 views give 3 pairs).
     pub min_pairs: usize,
     /// Robust loss on the normalised residual blocks (default Huber, `k = 2`).
@@ -324,13 +358,7 @@ pub struct DriftParams {
 impl Default for DriftParams {
     fn default() -> Self {
         Self {
-            selfcal: SelfCalParams {
-                steps: super::Steps {
-                    angle_prior: false,
-                    ..super::Steps::ours()
-                },
-                ..SelfCalParams::default()
-            },
+            selfcal: SelfCalParams::default(),
             noise_rgbd: PairNoise {
                 rot_deg: 0.045,
                 trans_mm: 0.35,
@@ -347,6 +375,8 @@ impl Default for DriftParams {
             target_trans_mm: 3.0,
             min_threshold_rot_deg: 0.1,
             min_threshold_trans_mm: 0.75,
+            change_prior_rot_deg: 5.0,
+            change_prior_trans_mm: 20.0,
             min_pairs: 3,
             loss: RobustLoss::Huber { k: 2.0 },
             max_iterations: 20,
@@ -416,15 +446,21 @@ pub enum CannotTell {
     /// The hand motions are degenerate (one rotation axis) or inconsistent with the camera's.
     #[error("degenerate or inconsistent motion: {0}")]
     Degenerate(HandEyeError),
-    /// The check motion and the noise cannot resolve a bump of the target size.
+    /// The views neither show a significant change nor exclude one of the target size.
     #[error(
-        "no drift above the thresholds ({rotation_deg:.3} deg, {translation_mm:.2} mm estimated), but the views only resolve bumps of {detectable_rot_deg:.2} deg / {detectable_trans_mm:.2} mm (targets {target_rot_deg} deg / {target_trans_mm} mm; 1-sigma {sigma_rot_deg:.3} deg / {sigma_trans_mm:.2} mm, {pairs} pairs, chi^2/dof {reduced_chi2:.2}): use larger wrist rotations about more axes, more views, or better images"
+        "no drift above the thresholds ({rotation_deg:.3} deg, {translation_mm:.2} mm estimated), but the mount may have moved up to {bound_rot_deg:.2} deg / {bound_trans_mm:.2} mm ({confidence_pct:.0}% bound; targets {target_rot_deg} deg / {target_trans_mm} mm; 1-sigma {sigma_rot_deg:.3} deg / {sigma_trans_mm:.2} mm, {pairs} pairs, chi^2/dof {reduced_chi2:.2}; bumps of {detectable_rot_deg:.2} deg / {detectable_trans_mm:.2} mm would be seen): use larger wrist rotations about more axes, more views, or better images"
     )]
     Unobservable {
         /// Estimated rotation of the mount, degrees.
         rotation_deg: f64,
         /// Estimated translation, millimetres.
         translation_mm: f64,
+        /// Upper confidence bound of the rotation ([`DriftEstimate::bound_rot_deg`]), degrees.
+        bound_rot_deg: f64,
+        /// ... of the translation, millimetres.
+        bound_trans_mm: f64,
+        /// The bounds' confidence ([`DriftParams::detection`]), percent.
+        confidence_pct: f64,
         /// Smallest rotation bump detected with the target probability, degrees.
         detectable_rot_deg: f64,
         /// ... translation, millimetres.
@@ -509,6 +545,11 @@ pub struct DriftEstimate {
     pub detectable_rot_deg: f64,
     /// `tau_t + z s_t`, millimetres.
     pub detectable_trans_mm: f64,
+    /// `U_R = |d_theta| + z s_R`: the change is below this with probability `detection`
+    /// (module docs), degrees.
+    pub bound_rot_deg: f64,
+    /// `U_t = |d_t| + z s_t`, millimetres.
+    pub bound_trans_mm: f64,
     /// Weighted chi^2 of the normalised residuals at the estimate.
     pub chi2: f64,
     /// Its degrees of freedom `nu`.
@@ -671,6 +712,13 @@ pub fn check_drift(
     }
 }
 
+/// `(d_theta, d_t)` of `x` against `x0` (module docs: `x = (exp([d_theta]x) R_0, t_0 + d_t)`).
+fn change_from(x0: &Isometry3<f64>, x: &Isometry3<f64>) -> Vector6<f64> {
+    let d_theta = (x.rotation * x0.rotation.inverse()).scaled_axis();
+    let d_t = x.translation.vector - x0.translation.vector;
+    Vector6::new(d_theta.x, d_theta.y, d_theta.z, d_t.x, d_t.y, d_t.z)
+}
+
 /// Each motion's scale under `x` (mono, [`scales_from_x`]).
 fn pair_scales(motions: &[(usize, RelativeMotion)], x: &Isometry3<f64>) -> Vec<f64> {
     let unit: Vec<_> = motions.iter().map(|(_, m)| (m.a, m.b, m.weight)).collect();
@@ -716,8 +764,24 @@ fn estimate_change(
 ) -> DriftEstimate {
     let sigmas = (noise.rot_deg.to_radians(), noise.trans_mm * 1e-3);
     let per_scale = mode == Mode::Mono;
+    // The change prior (module docs): information P on (d_theta, d_t) about x0, cost
+    // 0.5 delta^T P delta, kept out of chi^2 (it is not a measurement).
+    let prior_info = Vector6::new(
+        params.change_prior_rot_deg.to_radians().powi(-2),
+        params.change_prior_rot_deg.to_radians().powi(-2),
+        params.change_prior_rot_deg.to_radians().powi(-2),
+        (params.change_prior_trans_mm * 1e-3).powi(-2),
+        (params.change_prior_trans_mm * 1e-3).powi(-2),
+        (params.change_prior_trans_mm * 1e-3).powi(-2),
+    );
     let normal = |x: &Isometry3<f64>| {
-        normal_equations_x(&metric(motions, x, mode), x, sigmas, params.loss, per_scale)
+        let mut n =
+            normal_equations_x(&metric(motions, x, mode), x, sigmas, params.loss, per_scale);
+        let delta = change_from(x0, x);
+        n.h += Matrix6::from_diagonal(&prior_info);
+        n.g += prior_info.component_mul(&delta);
+        n.cost += 0.5 * delta.dot(&prior_info.component_mul(&delta));
+        n
     };
     let mut x = *x0;
     let mut n = normal(&x);
@@ -767,27 +831,65 @@ fn estimate_change(
     };
     let s_rot = (var_rot + params.x_sigma_rot_deg.to_radians().powi(2)).sqrt();
     let s_t = (var_t + (params.x_sigma_trans_mm * 1e-3).powi(2)).sqrt();
-    let k = chi2_3_quantile(1.0 - 0.5 * params.false_alarm).sqrt();
-    let z = normal_quantile(params.detection);
-    let tau_rot = (k * s_rot).max(params.min_threshold_rot_deg.to_radians());
-    let tau_t = (k * s_t).max(params.min_threshold_trans_mm * 1e-3);
     let d_theta_rad = (x.rotation * x0.rotation.inverse()).scaled_axis();
     let d_t_m = x.translation.vector - x0.translation.vector;
+    let rot = BlockFigures::new(
+        d_theta_rad.norm().to_degrees(),
+        s_rot.to_degrees(),
+        params.min_threshold_rot_deg,
+        params,
+    );
+    let trans = BlockFigures::new(
+        d_t_m.norm() * 1e3,
+        s_t * 1e3,
+        params.min_threshold_trans_mm,
+        params,
+    );
     DriftEstimate {
         tool0_from_camera: x,
         d_theta_rad,
         d_t_m,
-        rotation_deg: d_theta_rad.norm().to_degrees(),
-        translation_mm: d_t_m.norm() * 1e3,
-        sigma_rot_deg: s_rot.to_degrees(),
-        sigma_trans_mm: s_t * 1e3,
-        threshold_rot_deg: tau_rot.to_degrees(),
-        threshold_trans_mm: tau_t * 1e3,
-        detectable_rot_deg: (tau_rot + z * s_rot).to_degrees(),
-        detectable_trans_mm: (tau_t + z * s_t) * 1e3,
+        rotation_deg: rot.change,
+        translation_mm: trans.change,
+        sigma_rot_deg: rot.sigma,
+        sigma_trans_mm: trans.sigma,
+        threshold_rot_deg: rot.threshold,
+        threshold_trans_mm: trans.threshold,
+        detectable_rot_deg: rot.detectable,
+        detectable_trans_mm: trans.detectable,
+        bound_rot_deg: rot.bound,
+        bound_trans_mm: trans.bound,
         chi2: n.chi2,
         dof,
         iterations,
+    }
+}
+
+/// The decision figures of one block (rotation in degrees, translation in millimetres) from
+/// its estimated change `|d_b|` and 1-sigma `s_b` (module docs): threshold
+/// `tau_b = max(k s_b, floor_b)`, detectable size `tau_b + z s_b`, upper bound
+/// `|d_b| + z s_b`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct BlockFigures {
+    change: f64,
+    sigma: f64,
+    threshold: f64,
+    detectable: f64,
+    bound: f64,
+}
+
+impl BlockFigures {
+    fn new(change: f64, sigma: f64, floor: f64, params: &DriftParams) -> Self {
+        let k = chi2_3_quantile(1.0 - 0.5 * params.false_alarm).sqrt();
+        let z = normal_quantile(params.detection);
+        let threshold = (k * sigma).max(floor);
+        Self {
+            change,
+            sigma,
+            threshold,
+            detectable: threshold + z * sigma,
+            bound: change + z * sigma,
+        }
     }
 }
 
@@ -800,12 +902,13 @@ fn decide(e: &DriftEstimate, pairs: usize, params: &DriftParams) -> DriftVerdict
         };
     }
     // NaN-safe: an undetermined figure cannot confirm consistency.
-    if !(e.detectable_rot_deg <= params.target_rot_deg
-        && e.detectable_trans_mm <= params.target_trans_mm)
-    {
+    if !(e.bound_rot_deg <= params.target_rot_deg && e.bound_trans_mm <= params.target_trans_mm) {
         return DriftVerdict::CannotTell(CannotTell::Unobservable {
             rotation_deg: e.rotation_deg,
             translation_mm: e.translation_mm,
+            bound_rot_deg: e.bound_rot_deg,
+            bound_trans_mm: e.bound_trans_mm,
+            confidence_pct: 100.0 * params.detection,
             detectable_rot_deg: e.detectable_rot_deg,
             detectable_trans_mm: e.detectable_trans_mm,
             target_rot_deg: params.target_rot_deg,
@@ -886,6 +989,126 @@ mod tests {
         assert!((chi2_3_quantile(0.975) - 9.3484).abs() < 1e-3);
         assert!((normal_quantile(0.95) - 1.6449).abs() < 1e-3);
         assert!((chi2_3_quantile(0.975).sqrt() - 3.0575).abs() < 1e-3);
+    }
+
+    /// An estimate whose blocks are `(d_theta, s_rot)` in degrees and `(d_t, s_t)` in mm.
+    fn estimate_of(
+        d_theta_deg: Vector3<f64>,
+        s_rot_deg: f64,
+        d_t_mm: Vector3<f64>,
+        s_t_mm: f64,
+        params: &DriftParams,
+    ) -> DriftEstimate {
+        let rot = BlockFigures::new(d_theta_deg.norm(), s_rot_deg, 0.1, params);
+        let trans = BlockFigures::new(d_t_mm.norm(), s_t_mm, 0.75, params);
+        DriftEstimate {
+            tool0_from_camera: Isometry3::identity(),
+            d_theta_rad: d_theta_deg.map(f64::to_radians),
+            d_t_m: d_t_mm * 1e-3,
+            rotation_deg: rot.change,
+            translation_mm: trans.change,
+            sigma_rot_deg: rot.sigma,
+            sigma_trans_mm: trans.sigma,
+            threshold_rot_deg: rot.threshold,
+            threshold_trans_mm: trans.threshold,
+            detectable_rot_deg: rot.detectable,
+            detectable_trans_mm: trans.detectable,
+            bound_rot_deg: rot.bound,
+            bound_trans_mm: trans.bound,
+            chi2: 6.0,
+            dof: 6,
+            iterations: 3,
+        }
+    }
+
+    /// Standard normals from a fixed xorshift stream (Box-Muller).
+    fn normals(state: &mut u64) -> [f64; 2] {
+        let mut uniform = || {
+            *state ^= *state << 13;
+            *state ^= *state >> 7;
+            *state ^= *state << 17;
+            ((*state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        let (u, v) = (uniform(), uniform());
+        let r = (-2.0 * u.ln()).sqrt();
+        let a = std::f64::consts::TAU * v;
+        [r * a.cos(), r * a.sin()]
+    }
+
+    /// The upper bound's promise (module docs): a translation bump of exactly the target
+    /// size, in any direction, under an anisotropic error whose worst axis is `s_t`, is
+    /// called Consistent in at most `1 - detection` of the checks, whatever `s_t`; and an
+    /// unmoved mount is called Consistent whenever `s_t` leaves room for it.
+    #[test]
+    fn a_target_size_bump_is_called_consistent_at_most_beta_of_the_time() {
+        let params = DriftParams::default();
+        let mut state = 0x9E37_79B9_7F4A_7C15_u64;
+        for s_t in [0.3, 0.6, 0.9, 1.2] {
+            let (mut consistent, mut unmoved_consistent, trials) = (0, 0, 4000);
+            for _ in 0..trials {
+                let [a, b] = normals(&mut state);
+                let [c, e0] = normals(&mut state);
+                let u = Vector3::new(a, b, c).normalize();
+                let [e1, e2] = normals(&mut state);
+                // The worst axis at s_t, the others at half of it.
+                let error = Vector3::new(e0 * s_t, e1 * 0.5 * s_t, e2 * 0.5 * s_t);
+                let bumped = u * params.target_trans_mm + error;
+                let tiny = Vector3::new(0.01, 0.0, 0.0);
+                let e = estimate_of(tiny, 0.05, bumped, s_t, &params);
+                if decide(&e, 6, &params) == DriftVerdict::Consistent {
+                    consistent += 1;
+                }
+                let e = estimate_of(tiny, 0.05, error, s_t, &params);
+                if decide(&e, 6, &params) == DriftVerdict::Consistent {
+                    unmoved_consistent += 1;
+                }
+            }
+            let missed = f64::from(consistent) / f64::from(trials);
+            let unmoved = f64::from(unmoved_consistent) / f64::from(trials);
+            eprintln!(
+                "s_t {s_t} mm: 3 mm bump called consistent {missed:.3}, unmoved consistent {unmoved:.3}"
+            );
+            assert!(missed <= 1.0 - params.detection, "s_t {s_t}: {missed}");
+            if s_t <= 0.9 {
+                // Detectable size 4.2 mm at 0.9 mm: the old rule could not call these
+                // consistent; the bound does, most of the time.
+                assert!(unmoved > 0.5, "s_t {s_t}: {unmoved}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_bound_decides_between_consistent_and_cannot_tell() {
+        let params = DriftParams::default();
+        let z = normal_quantile(params.detection);
+        let s_t = 0.8;
+        let tiny = Vector3::new(0.01, 0.0, 0.0);
+        let edge = params.target_trans_mm - z * s_t;
+        let under = estimate_of(
+            tiny,
+            0.05,
+            Vector3::new(0.0, edge - 0.01, 0.0),
+            s_t,
+            &params,
+        );
+        assert_eq!(decide(&under, 6, &params), DriftVerdict::Consistent);
+        let over = estimate_of(
+            tiny,
+            0.05,
+            Vector3::new(0.0, edge + 0.01, 0.0),
+            s_t,
+            &params,
+        );
+        assert!(matches!(
+            decide(&over, 6, &params),
+            DriftVerdict::CannotTell(CannotTell::Unobservable { .. })
+        ));
+        // Above the threshold it is a drift, whatever the bound.
+        let drift = estimate_of(tiny, 0.05, Vector3::new(0.0, 0.0, 2.5), s_t, &params);
+        assert!(matches!(
+            decide(&drift, 6, &params),
+            DriftVerdict::Drifted { .. }
+        ));
     }
 
     #[test]

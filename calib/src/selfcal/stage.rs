@@ -823,19 +823,18 @@ impl CalibrationStage {
             out.push(Self::log(Log::ERROR, log_time, text.clone()));
             return (TaskEvent::REFUSED, "cannot_tell", text);
         };
-        let mut selfcal = self.selfcal_params(&camera);
-        // As the drift check's defaults (see DriftParams::selfcal).
-        selfcal.steps.angle_prior = DriftParams::default().selfcal.steps.angle_prior;
         let params = DriftParams {
-            selfcal,
+            selfcal: self.selfcal_params(&camera),
             ..DriftParams::default()
         };
         let report = check_drift(&self.views, &camera, &self.tool0_from_camera, &params);
         let numbers = report.estimate.as_ref().map_or_else(String::new, |e| {
             format!(
-                "; change {:.3} deg / {:.2} mm, thresholds {:.3} deg / {:.2} mm, detectable {:.3} deg / {:.2} mm",
+                "; change {:.3} deg / {:.2} mm (at most {:.3} deg / {:.2} mm), thresholds {:.3} deg / {:.2} mm, detectable {:.3} deg / {:.2} mm",
                 e.rotation_deg,
                 e.translation_mm,
+                e.bound_rot_deg,
+                e.bound_trans_mm,
                 e.threshold_rot_deg,
                 e.threshold_trans_mm,
                 e.detectable_rot_deg,
