@@ -1,10 +1,13 @@
 //! `drive`: the base to the site's working spot (`/base/goal` in `map`), unless it is there
 //! already; done when the odometry is at the spot and still.
 //!
-//! The spot is a survey's, known to a few cm: a correction shorter than
-//! [`SPOT_TOLERANCE_M`] is not driven (the base only turns to the spot's heading), since a
-//! differential base turns in place to drive even 2 cm sideways and would sweep its corners
-//! through the rack beside it. Every drive is checked before it is sent: the chassis along
+//! The spot is a survey's, known to a few cm and a degree: a correction shorter than
+//! [`SPOT_TOLERANCE_M`] is not driven, since a differential base turns in place to drive
+//! even 2 cm sideways and would sweep its corners through the rack beside it; at the spot, a
+//! heading correction smaller than [`HEADING_TOLERANCE_RAD`] is not turned either (the
+//! operations work from the odometry's pose and the robot's own measurements, not from the
+//! survey's heading, and a turn in place sweeps the chassis' corners by 0.7 m x the angle
+//! towards the rack). Every drive is checked before it is sent: the chassis along
 //! the base's turn-drive-turn path against the site map's obstacles. When the direct path
 //! comes closer than [`DRIVE_CLEARANCE_M`] (typically its last turn, in place beside the
 //! rack), the base goes by a staging pose on the spot's heading behind it
@@ -43,6 +46,9 @@ const TURN_RATE_RAD_S: f64 = 0.6;
 
 /// A drive to the spot shorter than this is not made (m): three times a survey's 2 cm.
 pub const SPOT_TOLERANCE_M: f64 = 0.06;
+/// At the spot, a heading correction smaller than this is not turned (rad): three times a
+/// survey's 1 deg.
+pub const HEADING_TOLERANCE_RAD: f64 = 3.0 * std::f64::consts::PI / 180.0;
 /// The least clearance of the chassis to the site map's obstacles along a drive (m): the
 /// survey's error on the obstacles' positions.
 pub const DRIVE_CLEARANCE_M: f64 = 0.03;
@@ -59,6 +65,9 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
     let mut distance = (spot.x_m - here.x_m).hypot(spot.y_m - here.y_m);
     if distance < SPOT_TOLERANCE_M {
         (spot.x_m, spot.y_m, distance) = (here.x_m, here.y_m, 0.0);
+        if robot::se3::wrap_to_pi(spot.yaw_rad - here.yaw_rad).abs() < HEADING_TOLERANCE_RAD {
+            spot.yaw_rad = here.yaw_rad;
+        }
     }
     if distance < BASE_ARRIVED_M
         && robot::se3::wrap_to_pi(spot.yaw_rad - here.yaw_rad).abs() < BASE_ARRIVED_RAD

@@ -166,7 +166,8 @@ pub struct Rig {
     clamp_m: f64,
     /// The clamp's effort in the next joint state (N m).
     clamp_effort_nm: f64,
-    base: BasePose,
+    /// The base's pose in `map` (a test may place it before the drive).
+    pub base: BasePose,
     wrist: CameraModel,
     rays: RayTable,
     panoramic: CameraModel,

@@ -11,6 +11,7 @@ use nalgebra::{Point3, Vector3};
 use super::rig::Rig;
 use super::{LIMIT_S, assert_done, assert_ended, count, with_reason};
 use crate::stages::task::TaskKind;
+use crate::tasks::site::BasePose;
 
 /// A hang without the self-maintenance (the calibration as it is), run to its end.
 fn quick(kind: TaskKind) -> Rig {
@@ -138,6 +139,25 @@ fn drive_sends_the_base_to_the_working_spot() {
     assert!((goal.pose.position.x - spot.x_m).abs() < 1e-12);
     assert!((goal.pose.position.y - spot.y_m).abs() < 1e-12);
     assert_eq!(&rig.steps()[..3], ["begin", "drive", "stow"]);
+}
+
+/// At the spot within the survey's accuracy, the base does not turn in place for a heading
+/// correction within three times the survey's 1 deg (the turn sweeps the chassis' corners
+/// towards the rack beside it); a larger one is turned.
+#[test]
+fn drive_does_not_turn_for_a_heading_within_the_surveys_accuracy() {
+    let spot = crate::tasks::site::SiteMap::default_bay().work_spot;
+    for (off_deg, turns) in [(2.0_f64, false), (5.0, true)] {
+        let mut rig = Rig::with(TaskKind::Hang, |c, _| c.self_maintenance = false);
+        rig.base = BasePose {
+            x_m: spot.x_m + 0.03,
+            y_m: spot.y_m,
+            yaw_rad: spot.yaw_rad + off_deg.to_radians(),
+        };
+        until_after(&mut rig, "drive");
+        let goals = rig.outputs_in_step("drive", BASE_GOAL);
+        assert_eq!(goals.len(), usize::from(turns), "{off_deg} deg: {goals:?}");
+    }
 }
 
 #[test]
