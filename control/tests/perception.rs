@@ -578,7 +578,10 @@ fn washed_out_capture_is_refused_on_depth_validity() {
 
 proptest::proptest! {
     #![proptest_config(proptest::prelude::ProptestConfig {
-        cases: 32, failure_persistence: None, ..proptest::prelude::ProptestConfig::default()
+        cases: 32,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(0x5EED_0032),
+        failure_persistence: None,
+        ..proptest::prelude::ProptestConfig::default()
     })]
     /// Points on the visible arc (±60°) of a random cylinder, 0.1 mm noise, normals with ~2°
     /// noise, 40% uniform outliers: the axis comes back within 0.2 mm and 0.2°.
