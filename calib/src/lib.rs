@@ -8,11 +8,13 @@
 //! | [`handeye`] | `B X = X A` solvers over poses: the Kronecker/SVD form (eqs. 10-13) and the classic methods, with uncertainty |
 //! | [`selfcal`] | self-calibration over views: pairs, motions, the solve, eq. 15 over feature tracks, the drift check, the calibration stage |
 //! | [`board`] | chessboard corners, sub-pixel refinement and planar PnP, for board-based calibration |
+//! | [`quantiles`] | the normal, chi-square, F and Hotelling T^2 quantiles of the statistical decisions |
 //! | [`zhi`] | the ZHI baseline of the paper's comparisons (SIFT, structure from motion, SVD) |
 
 pub mod board;
 pub mod features;
 pub mod handeye;
+pub mod quantiles;
 pub mod relpose;
 pub mod selfcal;
 pub mod zhi;

@@ -51,7 +51,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use nalgebra::{Isometry3, Matrix3, Vector3};
+use nalgebra::{Isometry3, Matrix3, Matrix6, Vector3};
 use serde::Serialize;
 
 pub mod andreff;
@@ -310,6 +310,12 @@ pub struct HandEyeSolution {
     pub sigma_rot_deg: f64,
     /// 1-sigma translation uncertainty of X, millimetres (see [`uncertainty`]).
     pub sigma_trans_mm: f64,
+    /// The covariance of X behind the sigmas, parameters `(theta, t)` (rad, m; `theta` the
+    /// rotation vector of `R R_X^T`): its 3x3 blocks are what a Mahalanobis test of the
+    /// rotation and the translation error takes.
+    pub covariance: Option<Matrix6<f64>>,
+    /// Where [`Self::covariance`] comes from.
+    pub uncertainty: UncertaintySource,
     /// Rotation-axis conditioning of the hand motions in `[0, 1]` (see [`degeneracy`]).
     pub condition: f64,
     /// Largest hand/eye rotation-angle difference over the used pairs, degrees.
@@ -318,6 +324,25 @@ pub struct HandEyeSolution {
     pub iterations: usize,
     /// Why the refinement stopped ([`Termination::Linear`] for the linear methods).
     pub termination: Termination,
+}
+
+/// How the uncertainty of a [`HandEyeSolution`] was obtained ([`uncertainty`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum UncertaintySource {
+    /// The Gauss-Newton covariance at the estimate, `P / M` inflated.
+    Linearised,
+    /// The jackknife over views ([`uncertainty::jackknife_over_views`]), from
+    /// [`uncertainty::MIN_JACKKNIFE_VIEWS`] views.
+    Jackknife,
+}
+
+impl HandEyeSolution {
+    /// Takes `covariance` (from `source`) as the solution's uncertainty, its sigmas with it.
+    pub fn set_covariance(&mut self, covariance: Matrix6<f64>, source: UncertaintySource) {
+        (self.sigma_rot_deg, self.sigma_trans_mm) = uncertainty::sigma_of(&covariance);
+        self.covariance = Some(covariance);
+        self.uncertainty = source;
+    }
 }
 
 /// Why a hand-eye calibration was refused.
@@ -530,6 +555,29 @@ pub fn solve(
     let independent = hand.len() - 1;
     let mut solution = solve_impl(&motions, opts, independent)?;
     solution.views = hand.len();
+    // The spread over views, each left out in turn (`uncertainty`).
+    let without = |k: usize, poses: &[Isometry3<f64>]| -> Vec<Isometry3<f64>> {
+        poses
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| *i != k)
+            .map(|(_, p)| *p)
+            .collect()
+    };
+    let jack = uncertainty::jackknife_over_views(hand.len(), &solution.tool0_from_camera, |k| {
+        let mut m = relative_motions(&without(k, hand), &without(k, eye), opts.pairs);
+        if !opts.eye_lever {
+            for m in &mut m {
+                m.eye_lever_m = Vector3::zeros();
+            }
+        }
+        solve_impl(&m, opts, independent - 1)
+            .ok()
+            .map(|s| s.tool0_from_camera)
+    });
+    if let Some(cov) = jack {
+        solution.set_covariance(cov, UncertaintySource::Jackknife);
+    }
     Ok(solution)
 }
 
@@ -644,6 +692,8 @@ fn solve_impl(
         residual_trans_mm: stats.residual_trans_mm,
         sigma_rot_deg: stats.sigma_rot_deg,
         sigma_trans_mm: stats.sigma_trans_mm,
+        covariance: stats.covariance,
+        uncertainty: UncertaintySource::Linearised,
         condition: report.condition,
         max_angle_mismatch_deg: report.max_angle_mismatch_deg,
         iterations,
@@ -673,10 +723,11 @@ pub fn solve_tum(
 /// The calibration JSON object of ARCHITECTURE.md section 4:
 /// `{"method","mode","frame":"tool0","child_frame","translation_m","quaternion_xyzw",
 /// "matrix" (4x4 row-major),"views","pairs","residual_rot_deg","residual_trans_mm",
-/// "sigma_rot_deg","sigma_trans_mm","condition","scale"}`; the transform is
-/// `tool0_from_camera`. `mode` is `poses` for `calib handeye` (`rgbd`/`mono` for `calib
-/// self`). Non-finite figures become `null`. Print with `serde_json::to_string` (floats
-/// round-trip exact).
+/// "sigma_rot_deg","sigma_trans_mm","covariance" (6x6 of `(theta, t)` in rad and m,
+/// row-major, or null),"uncertainty" (`jackknife` or `linearised`),"condition","scale"}`;
+/// the transform is `tool0_from_camera`. `mode` is `poses` for `calib handeye` (`rgbd`/`mono`
+/// for `calib self`). Non-finite figures become `null`. Print with `serde_json::to_string`
+/// (floats round-trip exact).
 pub fn calibration_json(
     solution: &HandEyeSolution,
     method: &str,
@@ -690,6 +741,15 @@ pub fn calibration_json(
     let matrix: Vec<Vec<f64>> = (0..4)
         .map(|r| (0..4).map(|c| m[(r, c)]).collect())
         .collect();
+    let covariance: Option<Vec<Vec<f64>>> = solution.covariance.map(|c| {
+        (0..6)
+            .map(|r| (0..6).map(|k| c[(r, k)]).collect())
+            .collect()
+    });
+    let uncertainty = match solution.uncertainty {
+        UncertaintySource::Linearised => "linearised",
+        UncertaintySource::Jackknife => "jackknife",
+    };
     serde_json::json!({
         "method": method,
         "mode": mode,
@@ -704,6 +764,8 @@ pub fn calibration_json(
         "residual_trans_mm": solution.residual_trans_mm,
         "sigma_rot_deg": solution.sigma_rot_deg,
         "sigma_trans_mm": solution.sigma_trans_mm,
+        "covariance": covariance,
+        "uncertainty": uncertainty,
         "condition": solution.condition,
         "scale": solution.scale,
     })

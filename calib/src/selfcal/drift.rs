@@ -155,6 +155,7 @@ use super::views::CalibView;
 use super::{Mode, SelfCalError};
 use crate::handeye::refine::{apply_x_step, normal_equations_x, pair_residual};
 use crate::handeye::{HandEyeError, HandEyeOptions, RelativeMotion, RobustLoss, degeneracy};
+use crate::quantiles::{chi2_3_quantile, normal_quantile};
 use crate::relpose::CameraModel;
 
 /// One pose of the check motion, in the frame of the structure looked at (module docs of
@@ -931,65 +932,9 @@ fn largest_eigenvalue(m: &Matrix3<f64>) -> f64 {
         .fold(f64::NEG_INFINITY, f64::max)
 }
 
-/// `erf(x)` (Abramowitz & Stegun 7.1.26, absolute error below 1.5e-7).
-fn erf(x: f64) -> f64 {
-    let t = 1.0 / (1.0 + 0.327_591_1 * x.abs());
-    let poly = t
-        * (0.254_829_592
-            + t * (-0.284_496_736
-                + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
-    let y = 1.0 - poly * (-x * x).exp();
-    if x >= 0.0 { y } else { -y }
-}
-
-/// `P(chi^2_3 <= x) = erf(sqrt(x / 2)) - sqrt(2 x / pi) exp(-x / 2)`.
-fn chi2_3_cdf(x: f64) -> f64 {
-    if x <= 0.0 {
-        return 0.0;
-    }
-    erf((0.5 * x).sqrt()) - (2.0 * x / std::f64::consts::PI).sqrt() * (-0.5 * x).exp()
-}
-
-/// Standard normal CDF.
-fn normal_cdf(z: f64) -> f64 {
-    0.5 * (1.0 + erf(z / std::f64::consts::SQRT_2))
-}
-
-/// The `q`-quantile of an increasing CDF on `[lo, hi]` by bisection.
-fn quantile(cdf: impl Fn(f64) -> f64, q: f64, mut lo: f64, mut hi: f64) -> f64 {
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if cdf(mid) < q {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
-}
-
-/// `F^-1_chi2_3(q)`.
-fn chi2_3_quantile(q: f64) -> f64 {
-    quantile(chi2_3_cdf, q.clamp(0.0, 1.0 - 1e-12), 0.0, 200.0)
-}
-
-/// `Phi^-1(q)`.
-fn normal_quantile(q: f64) -> f64 {
-    quantile(normal_cdf, q.clamp(1e-12, 1.0 - 1e-12), -40.0, 40.0)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn quantiles_match_tables() {
-        // chi^2_3: 95% 7.815, 97.5% 9.348; normal: 95% 1.6449.
-        assert!((chi2_3_quantile(0.95) - 7.8147).abs() < 1e-3);
-        assert!((chi2_3_quantile(0.975) - 9.3484).abs() < 1e-3);
-        assert!((normal_quantile(0.95) - 1.6449).abs() < 1e-3);
-        assert!((chi2_3_quantile(0.975).sqrt() - 3.0575).abs() < 1e-3);
-    }
 
     /// An estimate whose blocks are `(d_theta, s_rot)` in degrees and `(d_t, s_t)` in mm.
     fn estimate_of(
