@@ -49,7 +49,7 @@ use sim::render::{
 };
 
 use super::progress::Progress;
-use super::report::{Comparison, Report, Results, Table, fmt_num};
+use super::report::{Comparison, Report, Results, Table, fmt_num, fmt_pct};
 use super::stats::{RefusalCounter, Summary};
 use super::{Settings, trial_seed};
 
@@ -336,6 +336,10 @@ pub struct PoseErrors {
     pub theta_deg: f64,
     /// Translation error, mm.
     pub e_t_mm: f64,
+    /// Squared Mahalanobis distances `(rotation, translation)` of the error against the
+    /// estimate's reported covariance, when it has one.
+    #[serde(default)]
+    pub mahalanobis: Option<(f64, f64)>,
 }
 
 impl PoseErrors {
@@ -346,9 +350,32 @@ impl PoseErrors {
             e_r: 2.0 * (0.5 * theta_deg.to_radians()).sin(),
             theta_deg,
             e_t_mm: e_t * 1e3,
+            mahalanobis: None,
+        }
+    }
+
+    /// As [`Self::of`] for a solution, with the Mahalanobis distances of its error against
+    /// the 3x3 blocks of its covariance (rotation vector of `R R_true^T`, rad; translation, m).
+    pub fn of_solution(solution: &calib::handeye::HandEyeSolution, truth: &Isometry3<f64>) -> Self {
+        let x = &solution.tool0_from_camera;
+        let r = (x.rotation * truth.rotation.inverse()).scaled_axis();
+        let t = x.translation.vector - truth.translation.vector;
+        let mahalanobis = solution.covariance.map(|c| {
+            let block = |o: usize, v: &nalgebra::Vector3<f64>| {
+                let b: nalgebra::Matrix3<f64> = c.fixed_view::<3, 3>(o, o).into_owned();
+                b.try_inverse().map_or(f64::INFINITY, |bi| v.dot(&(bi * v)))
+            };
+            (block(0, &r), block(3, &t))
+        });
+        Self {
+            mahalanobis,
+            ..Self::of(x, truth)
         }
     }
 }
+
+/// The chi-square(3) 95 % point a squared Mahalanobis distance is tested against.
+pub const CHI2_3_95: f64 = 7.8147;
 
 /// Outcome of every method on one set of views, in [`METHODS`] order: `Ok(errors)` or the
 /// refusal text.
@@ -519,16 +546,18 @@ pub fn run_methods(
     let cam = &ctx.camera;
     let ours = &ctx.ours;
     let score = |x: &Isometry3<f64>| PoseErrors::of(x, &trial.true_mount);
+    let scored =
+        |s: &calib::handeye::HandEyeSolution| PoseErrors::of_solution(s, &trial.true_mount);
     let paper = self_calibrate(&rgbd, cam, &ctx.paper)
-        .map(|r| score(&r.solution.tool0_from_camera))
+        .map(|r| scored(&r.solution))
         .map_err(|e| e.to_string());
     let a = self_calibrate(&rgbd, cam, ours)
-        .map(|r| score(&r.solution.tool0_from_camera))
+        .map(|r| scored(&r.solution))
         .map_err(|e| e.to_string());
     let mono_result = self_calibrate(&mono, cam, ours);
     let b = mono_result
         .as_ref()
-        .map(|r| score(&r.solution.tool0_from_camera))
+        .map(|r| scored(&r.solution))
         .map_err(ToString::to_string);
     // What the consistency refusal prevented (ZHI has no such refusal to hide behind).
     let b_unchecked = match &mono_result {
@@ -540,7 +569,7 @@ pub fn run_methods(
         Err(e) => Err(e.to_string()),
     };
     let c = calibrate_zhi(&mono, cam, &ZhiParams::for_camera(cam))
-        .map(|r| score(&r.solution.tool0_from_camera))
+        .map(|r| scored(&r.solution))
         .map_err(|e| e.to_string());
     Ok(vec![
         ("paper".to_owned(), paper),
@@ -580,6 +609,9 @@ pub struct Cell {
     pub theta_deg: Vec<f64>,
     /// `e_t` samples, mm.
     pub e_t_mm: Vec<f64>,
+    /// Squared Mahalanobis distances `(rotation, translation)` of the results that reported
+    /// a covariance.
+    pub mahalanobis: Vec<(f64, f64)>,
 }
 
 impl Cell {
@@ -588,7 +620,61 @@ impl Cell {
         self.e_r.push(e.e_r);
         self.theta_deg.push(e.theta_deg);
         self.e_t_mm.push(e.e_t_mm);
+        self.mahalanobis.extend(e.mahalanobis);
     }
+
+    /// `(rotation, translation, results)`: how many of the results with a covariance had
+    /// their error within its 95 % ellipsoid ([`CHI2_3_95`]).
+    pub fn covered(&self) -> (usize, usize, usize) {
+        let within = |pick: fn(&(f64, f64)) -> f64| {
+            self.mahalanobis
+                .iter()
+                .filter(|m| pick(m) <= CHI2_3_95)
+                .count()
+        };
+        (within(|m| m.0), within(|m| m.1), self.mahalanobis.len())
+    }
+}
+
+/// The coverage table of `cells` (`cells[condition][method]`): per cell, the share of the
+/// answers whose rotation and translation errors fell inside the reported covariance's 95 %
+/// ellipsoid, with Wilson intervals. A trustworthy uncertainty has about 95 %.
+pub fn coverage_table(conditions: &[String], cells: &[Vec<Cell>], header: &str) -> Table {
+    let mut table = Table::new(&[
+        header,
+        "method",
+        "answers with a covariance",
+        "rotation within (95% interval)",
+        "translation within (95% interval)",
+    ]);
+    for (c, cond) in conditions.iter().enumerate() {
+        for (m, method) in METHODS.iter().enumerate() {
+            let Some(cell) = cells.get(c).and_then(|v| v.get(m)) else {
+                continue;
+            };
+            let (r, t, n) = cell.covered();
+            if n == 0 {
+                continue;
+            }
+            let share = |k: usize| {
+                let (lo, hi) = super::stats::wilson_95(k, n);
+                format!(
+                    "{k}/{n}, {} ({}-{})",
+                    fmt_pct(k as f64 / n as f64, 0),
+                    fmt_pct(lo, 0),
+                    fmt_pct(hi, 0)
+                )
+            };
+            table.row(vec![
+                cond.clone(),
+                (*method).to_owned(),
+                n.to_string(),
+                share(r),
+                share(t),
+            ]);
+        }
+    }
+    table
 }
 
 /// Summary row of one cell for results.json.
@@ -834,6 +920,13 @@ pub fn run(settings: &Settings) -> Result<()> {
         all_answered_table(&conditions, &common, &common_trials, "noise");
     report.heading("Over the trials every method answered");
     report.table(&common_table);
+    report.heading("Is the reported uncertainty to be trusted?");
+    report.paragraph(
+        "Each answer's error against its own reported covariance: the share of answers whose \
+         squared Mahalanobis distance (rotation, translation) is within chi-square(3)'s 95 % \
+         point 7.81. A trustworthy uncertainty keeps about 95 % (90-99 %).",
+    );
+    report.table(&coverage_table(&conditions, &cells, "noise"));
     box_plots(
         settings,
         &mut report,

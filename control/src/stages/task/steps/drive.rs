@@ -12,7 +12,10 @@
 //! comes closer than [`DRIVE_CLEARANCE_M`] (typically its last turn, in place beside the
 //! rack), the base goes by a staging pose on the spot's heading behind it
 //! ([`STAGING_DISTANCES_M`]) and drives straight onto the spot from there, as a driver
-//! would; when no such path is clear, the drive is refused (`drive_blocked`).
+//! would; when no such path is clear, a correction shorter than [`STAY_DISTANCE_M`] is not
+//! made (the survey's spot is no better known than where the robot stands: on seeded sites
+//! the survey even put the robot's own start pose inside the rack's pedestal), and a longer
+//! one is refused (`drive_blocked`).
 
 use msgs::RobotDuration;
 use msgs::frames::MAP;
@@ -46,6 +49,9 @@ const TURN_RATE_RAD_S: f64 = 0.6;
 
 /// A drive to the spot shorter than this is not made (m): three times a survey's 2 cm.
 pub const SPOT_TOLERANCE_M: f64 = 0.06;
+/// A correction shorter than this (m, five times the survey's 2 cm) that cannot be driven
+/// clear of the site's obstacles is not driven: the robot works from where it stands.
+pub const STAY_DISTANCE_M: f64 = 0.1;
 /// At the spot, a heading correction smaller than this is not turned (rad): three times a
 /// survey's 1 deg.
 pub const HEADING_TOLERANCE_RAD: f64 = 3.0 * std::f64::consts::PI / 180.0;
@@ -88,6 +94,25 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
                 vec![(stage, to_stage), (spot, d)]
             })
         });
+        if staged.is_none() && distance < STAY_DISTANCE_M {
+            // The survey puts the robot where it cannot be (its own pose touching the
+            // obstacle) or the correction is within the survey's reach of error: it works
+            // from where it stands.
+            let now = task.robot.now;
+            task.out.event(
+                now,
+                msgs::rodlog_msgs::TaskEvent::INFO,
+                NAME,
+                "",
+                format!(
+                    "staying {:.0} mm from the survey's spot: driving there would bring the chassis within {:.0} mm of {obstacle} (at least {:.0} mm needed), and the spot is known only to 20 mm per axis",
+                    distance * 1e3,
+                    clearance_m * 1e3,
+                    DRIVE_CLEARANCE_M * 1e3
+                ),
+            );
+            return Ok(Vec::new());
+        }
         staged.ok_or_else(|| {
             Stop::refused(
                 "drive_blocked",

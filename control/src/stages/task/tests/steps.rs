@@ -160,6 +160,30 @@ fn drive_does_not_turn_for_a_heading_within_the_surveys_accuracy() {
     }
 }
 
+/// A correction just beyond the spot's tolerance that cannot be driven clear of the rack
+/// (a turn in place beside it) is not driven: the robot works from where it stands, and
+/// says so.
+#[test]
+fn drive_stays_put_when_a_short_correction_would_hit_the_rack() {
+    let spot = crate::tasks::site::SiteMap::default_bay().work_spot;
+    let mut rig = Rig::with(TaskKind::Hang, |c, _| c.self_maintenance = false);
+    // 7 cm towards the rack, on the spot's heading.
+    rig.base = BasePose {
+        x_m: spot.x_m - 0.07,
+        ..spot
+    };
+    until_after(&mut rig, "drive");
+    assert!(rig.outputs_in_step("drive", BASE_GOAL).is_empty());
+    let events = rig.events();
+    assert!(
+        events
+            .iter()
+            .any(|e| e.state == "drive" && e.text.starts_with("staying 70 mm")),
+        "{events:#?}"
+    );
+    assert_eq!(&rig.steps()[..3], ["begin", "drive", "stow"]);
+}
+
 #[test]
 fn stow_moves_nothing_already_stowed_and_lowers_a_raised_lift() {
     let mut rig = Rig::with(TaskKind::Hang, |c, _| c.self_maintenance = false);
