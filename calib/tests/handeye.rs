@@ -99,6 +99,8 @@ fn json_has_every_field_of_design_s4() {
         "residual_trans_mm",
         "sigma_rot_deg",
         "sigma_trans_mm",
+        "covariance",
+        "uncertainty",
         "condition",
         "scale",
     ] {
@@ -106,6 +108,9 @@ fn json_has_every_field_of_design_s4() {
     }
     assert_eq!(json["pairs"], 10);
     assert_eq!(json["mode"], "poses");
+    // Five views are too few for the jackknife: the linearised covariance, 6x6.
+    assert_eq!(json["uncertainty"], "linearised");
+    assert_eq!(json["covariance"].as_array().map(Vec::len), Some(6));
 }
 
 #[test]
