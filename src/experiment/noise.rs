@@ -999,6 +999,28 @@ mod tests {
         assert!(m.behind && m.rodlog.contains("no answers"), "{m:?}");
     }
 
+    /// The coverage counts the answers whose distances are within chi-square(3)'s 95 %
+    /// point, per block, over the answers that had a covariance.
+    #[test]
+    fn coverage_counts_answers_within_their_ellipsoid() {
+        let mut cell = Cell::default();
+        for m in [Some((1.0, 9.0)), Some((8.0, 2.0)), None, Some((7.8, 7.8))] {
+            cell.push(&PoseErrors {
+                e_r: 0.001,
+                theta_deg: 0.05,
+                e_t_mm: 1.0,
+                mahalanobis: m,
+            });
+        }
+        assert_eq!(cell.covered(), (2, 2, 3));
+        let table = coverage_table(&["sigma=0.05".to_owned()], &[vec![cell]], "noise");
+        assert!(
+            table.to_markdown().contains("2/3, 67%"),
+            "{}",
+            table.to_markdown()
+        );
+    }
+
     fn outcomes(answers: [Option<f64>; METHODS.len()]) -> MethodOutcomes {
         METHODS
             .iter()
@@ -1009,6 +1031,7 @@ mod tests {
                         e_r: 0.001,
                         theta_deg: 0.05,
                         e_t_mm,
+                        mahalanobis: Some((1.0, 9.0)),
                     })
                     .ok_or_else(|| "refused".to_owned());
                 ((*m).to_owned(), o)
