@@ -80,8 +80,7 @@
 //! - a bump of size `D` in any direction is reported with probability at least
 //!   `Phi((D - tau_b) / s_b)` (the estimate's component along the bump alone exceeds
 //!   `tau_b`), i.e. at least `1 - beta` ([`DriftParams::detection`], 95%: `z = 1.645`) for
-//!   `D >= tau_b + z s_b`, the **detectable size**.
-//!
+//!   `D >= tau_b + z s_b`, the **detectable size**;
 //! - the **upper bound** of the change, `U_b = |d_b| + z s_b`, is a one-sided confidence
 //!   bound: for any true change `d` (unit direction `u`), `|d_hat| >= u^T d_hat = |d| + u^T e`
 //!   with `u^T e ~ N(0, sigma_u^2)`, `sigma_u <= s_b`, so `P(U_b < |d|) <= P(u^T e < -z s_b)
