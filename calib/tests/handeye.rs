@@ -788,14 +788,7 @@ fn pairs_with_angle_mismatch_are_rejected_and_reported() {
 /// The squared Mahalanobis distances `(rotation, translation)` of an estimate's error
 /// against the 3x3 blocks of its reported covariance.
 fn mahalanobis(s: &calib::handeye::HandEyeSolution, truth: &Isometry3<f64>) -> (f64, f64) {
-    let cov = s.covariance.expect("a covariance");
-    let r = (s.tool0_from_camera.rotation * truth.rotation.inverse()).scaled_axis();
-    let t = s.tool0_from_camera.translation.vector - truth.translation.vector;
-    let block = |o: usize, v: Vector3<f64>| {
-        let c: Matrix3<f64> = cov.fixed_view::<3, 3>(o, o).into_owned();
-        c.try_inverse().map_or(f64::INFINITY, |ci| v.dot(&(ci * v)))
-    };
-    (block(0, r), block(3, t))
+    calib::handeye::uncertainty::mahalanobis(s, truth).expect("a covariance")
 }
 
 /// An uncertainty that can be trusted: over 400 calibrations of 18 views with per-view

@@ -357,19 +357,9 @@ impl PoseErrors {
     /// As [`Self::of`] for a solution, with the Mahalanobis distances of its error against
     /// the 3x3 blocks of its covariance (rotation vector of `R R_true^T`, rad; translation, m).
     pub fn of_solution(solution: &calib::handeye::HandEyeSolution, truth: &Isometry3<f64>) -> Self {
-        let x = &solution.tool0_from_camera;
-        let r = (x.rotation * truth.rotation.inverse()).scaled_axis();
-        let t = x.translation.vector - truth.translation.vector;
-        let mahalanobis = solution.covariance.map(|c| {
-            let block = |o: usize, v: &nalgebra::Vector3<f64>| {
-                let b: nalgebra::Matrix3<f64> = c.fixed_view::<3, 3>(o, o).into_owned();
-                b.try_inverse().map_or(f64::INFINITY, |bi| v.dot(&(bi * v)))
-            };
-            (block(0, &r), block(3, &t))
-        });
         Self {
-            mahalanobis,
-            ..Self::of(x, truth)
+            mahalanobis: calib::handeye::uncertainty::mahalanobis(solution, truth),
+            ..Self::of(&solution.tool0_from_camera, truth)
         }
     }
 }

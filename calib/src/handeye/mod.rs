@@ -544,12 +544,17 @@ pub fn solve(
             return Err(HandEyeError::NonFinitePose { index, which });
         }
     }
-    let mut motions = relative_motions(hand, eye, opts.pairs);
-    if !opts.eye_lever {
-        for m in &mut motions {
-            m.eye_lever_m = Vector3::zeros();
+    // The pair motions of a set of views, with or without the eye lever.
+    let motions_of = |hand: &[Isometry3<f64>], eye: &[Isometry3<f64>]| {
+        let mut motions = relative_motions(hand, eye, opts.pairs);
+        if !opts.eye_lever {
+            for m in &mut motions {
+                m.eye_lever_m = Vector3::zeros();
+            }
         }
-    }
+        motions
+    };
+    let motions = motions_of(hand, eye);
     // All pairs of n views carry the information of only n - 1 independent motions: the
     // Jacobian covariance is inflated by pairs / (n - 1) (see `uncertainty`).
     let independent = hand.len() - 1;
@@ -565,15 +570,13 @@ pub fn solve(
             .collect()
     };
     let jack = uncertainty::jackknife_over_views(hand.len(), &solution.tool0_from_camera, |k| {
-        let mut m = relative_motions(&without(k, hand), &without(k, eye), opts.pairs);
-        if !opts.eye_lever {
-            for m in &mut m {
-                m.eye_lever_m = Vector3::zeros();
-            }
-        }
-        solve_impl(&m, opts, independent - 1)
-            .ok()
-            .map(|s| s.tool0_from_camera)
+        solve_impl(
+            &motions_of(&without(k, hand), &without(k, eye)),
+            opts,
+            independent - 1,
+        )
+        .ok()
+        .map(|s| s.tool0_from_camera)
     });
     if let Some(cov) = jack {
         solution.set_covariance(cov, UncertaintySource::Jackknife);

@@ -44,13 +44,13 @@
 //! the Schur complement ([`super::refine::normal_equations_x`]) and
 //! `chi^2 / (6 P - 6 - P)` is the reduced chi-square.
 
-use nalgebra::{Isometry3, Matrix6, Vector6};
+use nalgebra::{Isometry3, Matrix3, Matrix6, Vector3, Vector6};
 use rayon::prelude::*;
 
 use super::refine::{
     MIN_RESIDUAL_SCALE, linearise, median, normal_equations_x, pair_residual, residual_scales,
 };
-use super::{HandEyeOptions, RelativeMotion};
+use super::{HandEyeOptions, HandEyeSolution, RelativeMotion};
 
 /// Figures of [`evaluate`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -137,6 +137,22 @@ pub fn evaluate_per_motion_scale(
         .covariance
         .map_or((f64::NAN, f64::NAN), |c| sigma_of(&c));
     stats
+}
+
+/// The squared Mahalanobis distances `(rotation, translation)` of `solution`'s error against
+/// `truth`, each against its 3x3 block of the solution's covariance (rotation vector of
+/// `R R_truth^T` in rad, translation in m): what a chi-square(3) test of the reported
+/// uncertainty takes. `None` without a covariance; infinite for a singular block.
+pub fn mahalanobis(solution: &HandEyeSolution, truth: &Isometry3<f64>) -> Option<(f64, f64)> {
+    let cov = solution.covariance?;
+    let x = &solution.tool0_from_camera;
+    let r = (x.rotation * truth.rotation.inverse()).scaled_axis();
+    let t = x.translation.vector - truth.translation.vector;
+    let block = |o: usize, v: &Vector3<f64>| {
+        let b: Matrix3<f64> = cov.fixed_view::<3, 3>(o, o).into_owned();
+        b.try_inverse().map_or(f64::INFINITY, |bi| v.dot(&(bi * v)))
+    };
+    Some((block(0, &r), block(3, &t)))
 }
 
 /// Fewest views for [`jackknife_over_views`].

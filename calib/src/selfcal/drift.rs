@@ -857,19 +857,35 @@ fn estimate_change(
         tool0_from_camera: x,
         d_theta_rad,
         d_t_m,
-        rotation_deg: rot.change,
-        translation_mm: trans.change,
-        sigma_rot_deg: rot.sigma,
-        sigma_trans_mm: trans.sigma,
-        threshold_rot_deg: rot.threshold,
-        threshold_trans_mm: trans.threshold,
-        detectable_rot_deg: rot.detectable,
-        detectable_trans_mm: trans.detectable,
-        bound_rot_deg: rot.bound,
-        bound_trans_mm: trans.bound,
         chi2: n.chi2,
         dof,
         iterations,
+        ..DriftEstimate::of_blocks(&rot, &trans)
+    }
+}
+
+impl DriftEstimate {
+    /// The decision figures of the rotation and translation blocks; the change itself,
+    /// `chi^2` and the iterations left at their zero values for the caller to fill in.
+    fn of_blocks(rot: &BlockFigures, trans: &BlockFigures) -> Self {
+        Self {
+            tool0_from_camera: Isometry3::identity(),
+            d_theta_rad: Vector3::zeros(),
+            d_t_m: Vector3::zeros(),
+            rotation_deg: rot.change,
+            translation_mm: trans.change,
+            sigma_rot_deg: rot.sigma,
+            sigma_trans_mm: trans.sigma,
+            threshold_rot_deg: rot.threshold,
+            threshold_trans_mm: trans.threshold,
+            detectable_rot_deg: rot.detectable,
+            detectable_trans_mm: trans.detectable,
+            bound_rot_deg: rot.bound,
+            bound_trans_mm: trans.bound,
+            chi2: 0.0,
+            dof: 0,
+            iterations: 0,
+        }
     }
 }
 
@@ -954,22 +970,11 @@ mod tests {
         let rot = BlockFigures::new(d_theta_deg.norm(), s_rot_deg, 0.1, params);
         let trans = BlockFigures::new(d_t_mm.norm(), s_t_mm, 0.75, params);
         DriftEstimate {
-            tool0_from_camera: Isometry3::identity(),
             d_theta_rad: d_theta_deg.map(f64::to_radians),
             d_t_m: d_t_mm * 1e-3,
-            rotation_deg: rot.change,
-            translation_mm: trans.change,
-            sigma_rot_deg: rot.sigma,
-            sigma_trans_mm: trans.sigma,
-            threshold_rot_deg: rot.threshold,
-            threshold_trans_mm: trans.threshold,
-            detectable_rot_deg: rot.detectable,
-            detectable_trans_mm: trans.detectable,
-            bound_rot_deg: rot.bound,
-            bound_trans_mm: trans.bound,
             chi2: 6.0,
             dof: 6,
-            iterations: 3,
+            ..DriftEstimate::of_blocks(&rot, &trans)
         }
     }
 

@@ -393,7 +393,8 @@ pub fn self_calibrate(
             // Round 1 (blind essential matrices) gives X_1; round 2 re-estimates every pair
             // from the motion X_1^-1 B X_1 predicts (module docs of [`super`]) and is the one
             // that must pass the consistency refusal.
-            let first = solve_pair_motions(views, camera, params, motions.clone(), Check::None)?;
+            let first =
+                solve_pair_motions(views, camera, params, motions.clone(), Check::FirstRound)?;
             let guided = guided_mono_motions(views, camera, params, motions, &first.solution);
             solve_pair_motions(views, camera, params, guided, check)
         }
@@ -470,7 +471,9 @@ fn refine_mono_epipolar(
 /// Whether [`solve_pair_motions`] applies the consistency refusal.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Check {
-    /// A first round whose X only guides the second.
+    /// A first round whose X only guides the second: no refusal, no uncertainty over views.
+    FirstRound,
+    /// The final round without the consistency refusal.
     None,
     /// The final round ([`ConsistencyLimits`]).
     Consistency,
@@ -632,7 +635,11 @@ fn solve_pair_motions(
     }
     // Over views, when there are enough: the spread a view's own error makes
     // (`uncertainty::jackknife_over_views`), in place of either linearised figure.
-    if let Some(mut cov) = jackknife_over_views(&reports, &motions, mode, &opts, &solution) {
+    let final_round = check != Check::FirstRound;
+    if let Some(mut cov) = final_round
+        .then(|| jackknife_over_views(&reports, &motions, mode, &opts, &solution))
+        .flatten()
+    {
         // The epipolar refinement's X and the pose solve's X answer the same question from
         // the same views; where they disagree by `d`, at least one is off by `|d| / 2`, which
         // no resampling of the views shows (on calib-18 in mono they differ by 0.3 deg and
@@ -870,7 +877,7 @@ fn check_consistency(
 
 #[cfg(test)]
 mod tests {
-    use nalgebra::{Matrix3, UnitQuaternion};
+    use nalgebra::UnitQuaternion;
 
     use super::super::solve::solve_used;
     use super::*;
@@ -963,16 +970,7 @@ mod tests {
 
     /// The squared Mahalanobis distances of the rotation and translation errors.
     fn mahalanobis(s: &HandEyeSolution, truth: &Isometry3<f64>) -> (f64, f64) {
-        let Some(cov) = s.covariance else {
-            return (f64::INFINITY, f64::INFINITY);
-        };
-        let r = (s.tool0_from_camera.rotation * truth.rotation.inverse()).scaled_axis();
-        let t = s.tool0_from_camera.translation.vector - truth.translation.vector;
-        let block = |o: usize, v: Vector3<f64>| {
-            let c: Matrix3<f64> = cov.fixed_view::<3, 3>(o, o).into_owned();
-            c.try_inverse().map_or(f64::INFINITY, |ci| v.dot(&(ci * v)))
-        };
-        (block(0, r), block(3, t))
+        uncertainty::mahalanobis(s, truth).unwrap_or((f64::INFINITY, f64::INFINITY))
     }
 
     /// An uncertainty that can be trusted, in both modes (no rendering: pair motions with
