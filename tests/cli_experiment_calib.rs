@@ -25,17 +25,21 @@ fn experiment_results(args: &[&str], out: &Path) -> serde_json::Value {
 }
 
 fn run_experiment(name: &str, out: &Path) -> serde_json::Value {
-    let results = experiment_results(
-        &[
-            name,
-            "--trials",
-            "2",
-            "--image-scale",
-            "0.3",
-            "--no-reference",
-        ],
-        out,
-    );
+    run_experiment_with(name, &[], out)
+}
+
+/// As [`run_experiment`] with `extra` arguments.
+fn run_experiment_with(name: &str, extra: &[&str], out: &Path) -> serde_json::Value {
+    let mut args = vec![
+        name,
+        "--trials",
+        "2",
+        "--image-scale",
+        "0.3",
+        "--no-reference",
+    ];
+    args.extend_from_slice(extra);
+    let results = experiment_results(&args, out);
     let report = std::fs::read_to_string(out.join("report.md")).expect("report.md");
     assert!(
         report.contains("paper") && report.contains("ours-rgbd") && report.contains("zhi"),
@@ -72,7 +76,22 @@ fn calibration_experiments_smoke_runs() {
             assert!(p.is_file(), "{} missing", p.display());
         }
     }
-    let motions = run_experiment("motions", &tmp.path().join("motions"));
+    assert_eq!(noise["parameters"]["ours_steps"], serde_json::json!([]));
+    // A step measured before it becomes a default: the report and results.json say so.
+    let motions = run_experiment_with(
+        "motions",
+        &["--with", "image-motion", "--without", "consistency"],
+        &tmp.path().join("motions"),
+    );
+    assert_eq!(
+        motions["parameters"]["ours_steps"],
+        serde_json::json!(["+image-motion", "-consistency"])
+    );
+    let report = std::fs::read_to_string(tmp.path().join("motions/report.md")).expect("report");
+    assert!(
+        report.contains("**Ours is not the default here:** steps +image-motion -consistency"),
+        "{report}"
+    );
     // 12..=18 motions x 5 methods.
     check_cells(&motions["sections"]["cells"], 35);
     assert!(

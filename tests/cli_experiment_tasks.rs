@@ -176,6 +176,14 @@ fn wind_speeds_and_light_hours_choose_the_conditions() {
             vec!["experiment", "wind", "--speeds", "2,2"],
             "--speeds: 2 is given twice",
         ),
+        (
+            vec!["experiment", "wind", "--with", "image-motion"],
+            "--with/--without are options of the calibration experiments",
+        ),
+        (
+            vec!["experiment", "noise", "--without", "image-moton"],
+            "unknown step \"image-moton\"",
+        ),
     ] {
         let bad = run(&args);
         let err = String::from_utf8_lossy(&bad.stderr);

@@ -78,6 +78,15 @@ pub struct ExperimentOptions {
     /// strongest corners).
     #[arg(long, value_enum, default_value_t = super::calib::Distribution::Quadtree)]
     pub orb_distribution: super::calib::Distribution,
+    /// Switch a step of our self-calibration on in noise, motions and datasets (repeatable;
+    /// the names of `rodlog calib self --with`): measures a step before it becomes a default.
+    #[arg(long = "with", value_name = "STEP")]
+    #[serde(default)]
+    pub with_steps: Vec<String>,
+    /// Switch a step of our self-calibration off in noise, motions and datasets (repeatable).
+    #[arg(long = "without", value_name = "STEP")]
+    #[serde(default)]
+    pub without_steps: Vec<String>,
     /// `wind` only: the mean wind speeds to run (m/s, comma-separated, e.g. `2.5,3.0`)
     /// instead of the experiment's own list; a speed of the own list keeps its trials.
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
@@ -105,6 +114,33 @@ pub struct ExperimentOptions {
     #[arg(long)]
     #[serde(skip)]
     pub keep_failed: bool,
+}
+
+/// Our self-calibration's steps under `--with` / `--without` (`None` without either).
+fn ours_steps(
+    name: ExperimentName,
+    options: &ExperimentOptions,
+) -> Result<Option<calib::selfcal::Steps>> {
+    if options.with_steps.is_empty() && options.without_steps.is_empty() {
+        return Ok(None);
+    }
+    if !matches!(
+        name,
+        ExperimentName::Noise | ExperimentName::Motions | ExperimentName::Datasets
+    ) {
+        bail!(
+            "--with/--without are options of the calibration experiments (noise, motions, datasets); `rodlog experiment ablation` switches the steps itself"
+        );
+    }
+    let mut steps = calib::selfcal::Steps::ours();
+    for (names, on) in [(&options.with_steps, true), (&options.without_steps, false)] {
+        for step in names {
+            steps
+                .set(step, on)
+                .map_err(|e| anyhow::anyhow!("experiment --with/--without: {e}"))?;
+        }
+    }
+    Ok(Some(steps))
 }
 
 /// `--wrist-light`.
@@ -251,6 +287,7 @@ fn run_named(
     {
         bail!("--sites is an option of the task experiments (tasks, light, wind, maintenance)");
     }
+    let steps = ours_steps(name, options)?;
     let settings = || -> Result<Settings> {
         Ok(Settings {
             name: name.name(),
@@ -259,6 +296,7 @@ fn run_named(
             image_scale: options.image_scale,
             reference: !options.no_reference,
             orb_distribution: options.orb_distribution.into(),
+            steps,
             speeds_mps: options.speeds.clone(),
             hours: options.hours.clone(),
             seeded_sites: options.sites == Sites::Seeded,

@@ -167,6 +167,9 @@ pub fn run(settings: &Settings) -> Result<()> {
     let conditions = vec![cond.clone()];
     let (cells, refusals, seeds) = book_trials(&records, &conditions);
     let mut report = Report::new("Experiment datasets: ours vs ZHI (paper Tables 2-3)");
+    if let Some(note) = settings.ours_variant_note() {
+        report.paragraph(&note);
+    }
     report.heading("Dataset 1: simulator");
     report.paragraph(&format!(
         "{trials} trials x {VIEWS} views ({}x{} renders, wrist lens), no added image noise. \
@@ -241,6 +244,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     report.heading("Dataset 2: shecar (ZHI's sample)");
     let mut results = Results::new("datasets", settings.seed);
     results.parameter("orb_distribution", settings.orb_distribution.name())?;
+    results.parameter("ours_steps", settings.steps_changed())?;
     match &shecar {
         Ok(ShecarRecord {
             scores,

@@ -69,6 +69,9 @@ pub struct Settings {
     /// `--orb-distribution`: the ORB keypoint selection of our self-calibration in the
     /// calibration experiments (default the paper's quadtree).
     pub orb_distribution: calib::features::KeypointDistribution,
+    /// `--with STEP` / `--without STEP`: our self-calibration's steps in the calibration
+    /// experiments (noise, motions, datasets), `None` for [`calib::selfcal::Steps::ours`].
+    pub steps: Option<calib::selfcal::Steps>,
     /// `--speeds`: the wind experiment's mean speeds (m/s), `None` for its own list.
     pub speeds_mps: Option<Vec<f64>>,
     /// `--hours`: the light experiment's hours, `None` for its own list.
@@ -89,6 +92,42 @@ pub struct Settings {
 }
 
 impl Settings {
+    /// The report's line on how "ours" differs from the default self-calibration
+    /// (`--orb-distribution`, `--with`, `--without`), `None` when it does not.
+    pub fn ours_variant_note(&self) -> Option<String> {
+        let mut parts = Vec::new();
+        if self.orb_distribution != calib::features::KeypointDistribution::default() {
+            parts.push(format!("ORB keypoints by {}", self.orb_distribution.name()));
+        }
+        let changed = self.steps_changed();
+        if !changed.is_empty() {
+            parts.push(format!("steps {}", changed.join(" ")));
+        }
+        (!parts.is_empty()).then(|| {
+            format!(
+                "**Ours is not the default here:** {} (`--orb-distribution`, `--with`, `--without`).",
+                parts.join("; ")
+            )
+        })
+    }
+
+    /// The steps `--with` / `--without` changed from [`calib::selfcal::Steps::ours`], as
+    /// `+name` / `-name` in pipeline order (empty for ours as it is).
+    pub fn steps_changed(&self) -> Vec<String> {
+        let ours = calib::selfcal::Steps::ours();
+        let Some(steps) = self.steps else {
+            return Vec::new();
+        };
+        calib::selfcal::STEP_NAMES
+            .iter()
+            .filter_map(|name| {
+                let on = steps.is_on(name).ok()?;
+                (ours.is_on(name).ok()? != on)
+                    .then(|| format!("{}{name}", if on { '+' } else { '-' }))
+            })
+            .collect()
+    }
+
     /// The `sites` parameter of the task experiments' results.
     pub fn sites_label(&self) -> &'static str {
         if self.seeded_sites {

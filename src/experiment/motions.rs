@@ -54,6 +54,9 @@ pub fn run(settings: &Settings) -> Result<()> {
     };
     let (cells, refusals, seeds) = book_trials(&records, &conditions);
     let mut report = Report::new("Experiment motions: hand-eye error vs number of motions");
+    if let Some(note) = settings.ours_variant_note() {
+        report.paragraph(&note);
+    }
     report.paragraph(&format!(
         "{trials} trials; condition k uses the first k of the trial's {VIEWS} views \
          ({}x{} renders, wrist lens), image noise sigma {NOISE_SIGMA} on [0, 1] intensities. \
@@ -111,6 +114,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     results.parameter("trials", trials)?;
     results.parameter("views", &counts)?;
     results.parameter("orb_distribution", settings.orb_distribution.name())?;
+    results.parameter("ours_steps", settings.steps_changed())?;
     results.parameter("noise_sigma", NOISE_SIGMA)?;
     results.parameter("width", ctx.camera.width)?;
     results.parameter("height", ctx.camera.height)?;

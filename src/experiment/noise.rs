@@ -146,10 +146,13 @@ impl SimContext {
 }
 
 /// Our self-calibration's parameters for `camera` under `settings`
-/// (`--orb-distribution`).
+/// (`--orb-distribution`, `--with` / `--without`).
 pub fn ours_params(camera: &CameraModel, settings: &Settings) -> SelfCalParams {
     let mut p = SelfCalParams::for_camera(camera);
     p.orb.distribution = settings.orb_distribution;
+    if let Some(steps) = settings.steps {
+        p.steps = steps;
+    }
     p
 }
 
@@ -888,6 +891,9 @@ pub fn run(settings: &Settings) -> Result<()> {
     };
     let (cells, refusals, seeds) = book_trials(&records, &conditions);
     let mut report = Report::new("Experiment noise: hand-eye error vs image noise");
+    if let Some(note) = settings.ours_variant_note() {
+        report.paragraph(&note);
+    }
     report.paragraph(&format!(
         "{trials} trials x {VIEWS} views, rendered once per trial at {}x{} (wrist lens, \
          field of view kept) and reused at every noise level; Gaussian noise sigma on [0, 1] \
@@ -934,6 +940,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     results.parameter("trials", trials)?;
     results.parameter("views", VIEWS)?;
     results.parameter("orb_distribution", settings.orb_distribution.name())?;
+    results.parameter("ours_steps", settings.steps_changed())?;
     results.parameter("noise_sigmas", NOISE_SIGMAS)?;
     results.parameter("depth_noise_per_sigma_m", DEPTH_NOISE_PER_SIGMA_M)?;
     results.parameter("width", ctx.camera.width)?;

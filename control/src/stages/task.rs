@@ -121,7 +121,7 @@ use robot::IkSettings;
 use self::action::{Running, Until};
 use self::flow::{Flow, Next};
 use self::inputs::RobotState;
-use self::memory::Memory;
+use self::memory::{Memory, Rod};
 use self::outputs::Outbox;
 use self::planning::Arm;
 use crate::motion::collision::ArmCollisionModel;
@@ -198,6 +198,9 @@ pub struct TaskStage {
     queue: Vec<action::Action>,
     running: Option<Running>,
     holding_since: Option<RobotTime>,
+    /// Since when the gate has been open again within a hold that waits for the wire's swing
+    /// to settle ([`WindGateParams::settle_on_wire`](crate::tasks::safety::WindGateParams::settle_on_wire)).
+    settling_since: Option<RobotTime>,
     /// Time spent in finished wind holds this operation.
     held_for_wind: RobotDuration,
     began: Option<RobotTime>,
@@ -237,6 +240,7 @@ impl TaskStage {
             queue: Vec::new(),
             running: None,
             holding_since: None,
+            settling_since: None,
             held_for_wind: RobotDuration::ZERO,
             began: None,
         })
@@ -521,15 +525,49 @@ impl TaskStage {
     }
 
     /// The wind gate before a command: open, or hold (announced once per hold) and refuse
-    /// after the hold timeout.
+    /// after the hold timeout. While the rod is on the wire ([`Self::at_the_wire`]) a hold
+    /// ends only when the gate has stayed open for the settling time (the gust's swing of the
+    /// conductor dies down).
     fn wind_allows_commands(&mut self) -> bool {
         let now = self.task.robot.now;
         let verdict = self.task.robot.gate.verdict(now);
         if verdict.is_open() {
-            if let Some(since) = self.holding_since.take() {
+            let Some(since) = self.holding_since else {
+                return true;
+            };
+            let settle = if self.at_the_wire() {
+                self.task.config.wind.settle_on_wire
+            } else {
+                RobotDuration::ZERO
+            };
+            let open_since = match self.settling_since {
+                Some(t) => t,
+                None => {
+                    self.settling_since = Some(now);
+                    if settle > RobotDuration::ZERO {
+                        let state = self.step();
+                        self.task.event(
+                            TaskEvent::INFO,
+                            state,
+                            "settling_after_wind",
+                            format!(
+                                "the gust has passed ({}): waiting {:.0} s for the wire's swing to settle before moving at the rod on the wire",
+                                verdict.describe(),
+                                settle.as_secs_f64()
+                            ),
+                        );
+                    }
+                    now
+                }
+            };
+            if now.saturating_duration_since(open_since) >= settle {
                 self.held_for_wind = self.held_for_wind + now.saturating_duration_since(since);
+                self.holding_since = None;
+                self.settling_since = None;
+                return true;
             }
-            return true;
+        } else {
+            self.settling_since = None;
         }
         // Announced once per hold: `advance` runs for every message of a tick, so
         // "since == now" would repeat it within the first tick.
@@ -562,6 +600,13 @@ impl TaskStage {
             self.end(&stop);
         }
         false
+    }
+
+    /// Whether the rod is on the wire: the arm then works at a rod that swings with the
+    /// conductor (the release, the retreat from the hung rod, the remove up to and with the
+    /// unhook, which plans with the rod already held).
+    fn at_the_wire(&self) -> bool {
+        matches!(self.task.memory.rod, Rod::OnWire(_)) || self.step() == steps::unhook::NAME
     }
 
     /// Whether the running action waits for `until`.

@@ -188,6 +188,7 @@ impl TaskConfig {
     /// `standoff_m`, `wire_captures`, `sway_captures`, `max_sway_m`, `handle_captures`,
     /// `approach_m`, `attempts`, `clamp_torque_nm`, `operation_timeout_s`,
     /// `wind_limit_mps`, `wind_sigmas`, `wind_hold_timeout_s`, `wind_hold_budget_s`,
+    /// `wind_settle_s`,
     /// `min_confidence`, `latency_ms`, `light_on_below_lux`, `light_off_above_lux`,
     /// `light_brightness`); other fields keep [`Default`]'s.
     ///
@@ -223,6 +224,11 @@ impl TaskConfig {
             "wind_hold_budget_s",
             wind.hold_budget,
             "refuse when the holds for the wind in one operation add up to this",
+        )?;
+        wind.settle_on_wire = s.seconds(
+            "wind_settle_s",
+            wind.settle_on_wire,
+            "after a hold for the wind, while the arm works at the wire, wait this long with the gate open before moving (the conductor's swing settles)",
         )?;
         let lighting = LightingParams {
             on_below_lux: s.f64_in(

@@ -417,3 +417,73 @@ fn a_capture_without_the_arms_pose_fails_no_tf() {
     let last = assert_ended(&rig, TaskEvent::FAILED, "no_tf");
     assert_eq!(last.state, "capture_rack");
 }
+
+/// Times (s) of the arm, lift, base and clamp commands after `at_s`.
+fn motions_after(rig: &Rig, at_s: f64) -> Vec<f64> {
+    rig.outputs
+        .iter()
+        .filter(|o| o.at.as_secs_f64() > at_s)
+        .filter(|o| {
+            [ARM_JOINT_TRAJECTORY, LIFT_COMMAND, BASE_GOAL, CLAMP_COMMAND]
+                .contains(&o.topic.as_str())
+        })
+        .map(|o| o.at.as_secs_f64())
+        .collect()
+}
+
+/// The remove with a gust from 2 s to 7 s: it comes while the clamp opens on the hung rod,
+/// so the unhook (the next command) is held.
+fn remove_through_a_gust(settle: RobotDuration) -> Rig {
+    let mut rig = Rig::with(TaskKind::Remove, |c, b| {
+        c.self_maintenance = false;
+        c.wind.settle_on_wire = settle;
+        b.wind = |t| Some(if (2.0..7.0).contains(&t) { 4.5 } else { 0.5 });
+    });
+    rig.run(LIMIT_S);
+    assert_done(&rig);
+    let holds = with_reason(&rig, "holding_for_wind");
+    assert_eq!(holds.len(), 1, "{holds:#?}");
+    assert_eq!(holds[0].state, "unhook", "{holds:#?}");
+    rig
+}
+
+#[test]
+fn after_a_gust_the_arm_waits_for_the_wires_swing_to_settle_before_moving_at_the_hung_rod() {
+    let rig = remove_through_a_gust(RobotDuration::from_secs(15));
+    let settling = with_reason(&rig, "settling_after_wind");
+    assert_eq!(settling.len(), 1, "{settling:#?}");
+    assert!(settling[0].text.contains("waiting 15 s"), "{settling:#?}");
+    // The gate reopens with the reading at 7 s; the unhook goes 15 s later.
+    let first = motions_after(&rig, 2.0)
+        .first()
+        .copied()
+        .unwrap_or(f64::NAN);
+    assert!(
+        (22.0..23.0).contains(&first),
+        "first command after the gust at {first} s"
+    );
+    // Without the settling time the same unhook goes as the gate reopens.
+    let rig = remove_through_a_gust(RobotDuration::ZERO);
+    assert!(with_reason(&rig, "settling_after_wind").is_empty());
+    let first = motions_after(&rig, 2.0)
+        .first()
+        .copied()
+        .unwrap_or(f64::NAN);
+    assert!(
+        (7.0..8.0).contains(&first),
+        "first command after the gust at {first} s"
+    );
+}
+
+#[test]
+fn a_gust_before_the_rod_is_on_the_wire_needs_no_settling() {
+    // The hang's gust comes before the hook: the rod is in the gripper.
+    let mut rig = Rig::with(TaskKind::Hang, |c, b| {
+        c.self_maintenance = false;
+        b.wind = |t| Some(if (1.0..6.0).contains(&t) { 4.5 } else { 0.5 });
+    });
+    rig.run(LIMIT_S);
+    assert_done(&rig);
+    assert_eq!(with_reason(&rig, "holding_for_wind").len(), 1);
+    assert!(with_reason(&rig, "settling_after_wind").is_empty());
+}
