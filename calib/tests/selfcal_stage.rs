@@ -367,3 +367,55 @@ fn stage_refuses_degenerate_motion_and_keeps_the_nominal_edge() {
         &[nominal],
     );
 }
+
+/// The drift check takes the X in use to be as good as its calibration said: before any
+/// calibration (the configured mount) a typical self-calibration's figure, after one the
+/// accepted calibration's own covariance, and the check's log says which.
+#[test]
+fn the_drift_check_uses_the_covariance_of_the_calibration_it_checks() {
+    let x_true = sup::true_x();
+    let (views, cam) = sup::views(&sup::camera_poses(8), &x_true, true);
+    // Batches on command, as the task drives them.
+    let config = CalibrationStageConfig {
+        captures_to_solve: 0,
+        ..CalibrationStageConfig::default()
+    };
+    let mut h = Harness::new(config);
+    h.feed(500_000_000, topics::CAMERA_COLOR_INFO, &camera_info(&cam));
+    let command = |c: &str| Msg::String(msgs::std_msgs::String { data: c.to_owned() });
+    // A batch (`check` or `collect`) of the same views `shift_ns` later, solved; the last
+    // drift check log line.
+    let batch = |h: &mut Harness, kind: &str, shift_ns: u64| -> String {
+        h.feed(shift_ns, topics::CALIBRATION_COMMAND, &command(kind));
+        for v in &views {
+            let mut later = v.clone();
+            later.stamp_ns += shift_ns;
+            h.capture(&later, Some(&later.base_from_tool0), Some(later.stamp_ns));
+        }
+        let end = shift_ns + 100_000_000_000;
+        h.feed(end, topics::CALIBRATION_COMMAND, &command("solve"));
+        h.out
+            .iter()
+            .filter_map(|(t, m)| match m {
+                Msg::Log(l) if t == topics::ROSOUT && l.msg.starts_with("drift check") => {
+                    Some(l.msg.clone())
+                }
+                _ => None,
+            })
+            .next_back()
+            .unwrap_or_default()
+    };
+    let before = batch(&mut h, "check", 1_000_000_000_000);
+    assert!(
+        before.contains("came with no covariance") && before.contains("0.030 deg / 0.40 mm"),
+        "{before}"
+    );
+    batch(&mut h, "collect", 2_000_000_000_000);
+    assert_eq!(h.stage.accepted(), 1, "warnings: {:?}", h.logs(Log::WARN));
+    let after = batch(&mut h, "check", 3_000_000_000_000);
+    assert!(
+        after.contains("from its calibration's covariance"),
+        "{after}"
+    );
+    assert!(after.contains("where the calibration says"), "{after}");
+}

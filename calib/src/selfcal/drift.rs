@@ -108,7 +108,9 @@
 //! as a "drift" of its own. Two ways to run the check:
 //!
 //! 1. **Against the calibrated X**, [`DriftParams::default`]: `x_sigma` is the calibration's
-//!    error (0.03 deg / 0.4 mm per axis).
+//!    error (0.03 deg / 0.4 mm per axis, typical of an RGB-D self-calibration), or that
+//!    calibration's own reported covariance ([`DriftParams::with_x_covariance`]: the
+//!    calibration stage uses it for an `X` it calibrated).
 //! 2. **Against a reference** (recommended), [`DriftParams::against_reference`]: right after
 //!    a calibration is accepted, run the check motion once and keep
 //!    [`DriftEstimate::tool0_from_camera`] (the `X` those views support, including the arm's
@@ -400,6 +402,25 @@ pub const REFERENCE_SIGMA_ROT_DEG: f64 = 0.035;
 pub const REFERENCE_SIGMA_TRANS_MM: f64 = 0.35;
 
 impl DriftParams {
+    /// The parameters of a check against an `X` whose calibration reported `covariance`
+    /// (of `(theta, t)`, radians and metres: [`crate::handeye::HandEyeSolution::covariance`]):
+    /// `x_sigma` per axis is the square root of each block's largest eigenvalue, the
+    /// calibration's own figure in place of the default's typical one (a covariance that is
+    /// not finite leaves the defaults).
+    #[must_use]
+    pub fn with_x_covariance(self, covariance: &Matrix6<f64>) -> Self {
+        if !covariance.iter().all(|v| v.is_finite()) {
+            return self;
+        }
+        let rot = largest_eigenvalue(&covariance.fixed_view::<3, 3>(0, 0).into_owned());
+        let trans = largest_eigenvalue(&covariance.fixed_view::<3, 3>(3, 3).into_owned());
+        Self {
+            x_sigma_rot_deg: rot.max(0.0).sqrt().to_degrees(),
+            x_sigma_trans_mm: trans.max(0.0).sqrt() * 1e3,
+            ..self
+        }
+    }
+
     /// The parameters of a check against a reference check at the same poses (module docs):
     /// `x_sigma` = [`REFERENCE_SIGMA_ROT_DEG`], [`REFERENCE_SIGMA_TRANS_MM`].
     #[must_use]
@@ -990,6 +1011,38 @@ mod tests {
         let r = (-2.0 * u.ln()).sqrt();
         let a = std::f64::consts::TAU * v;
         [r * a.cos(), r * a.sin()]
+    }
+
+    /// A calibration's covariance sets `x_sigma` to its worst axis per block; a covariance
+    /// that is not finite keeps the defaults.
+    #[test]
+    fn the_x_sigma_comes_from_the_calibrations_covariance() {
+        let mut cov = Matrix6::zeros();
+        let rot = [0.01_f64, 0.05, 0.02].map(f64::to_radians);
+        let trans_m = [0.3e-3, 0.2e-3, 0.9e-3];
+        for k in 0..3 {
+            cov[(k, k)] = rot[k] * rot[k];
+            cov[(k + 3, k + 3)] = trans_m[k] * trans_m[k];
+        }
+        // A correlation inside the translation block raises its worst axis.
+        cov[(3, 5)] = 0.5 * trans_m[0] * trans_m[2];
+        cov[(5, 3)] = cov[(3, 5)];
+        let p = DriftParams::default().with_x_covariance(&cov);
+        assert!(
+            (p.x_sigma_rot_deg - 0.05).abs() < 1e-9,
+            "{}",
+            p.x_sigma_rot_deg
+        );
+        let worst = largest_eigenvalue(&cov.fixed_view::<3, 3>(3, 3).into_owned());
+        assert!((p.x_sigma_trans_mm - worst.sqrt() * 1e3).abs() < 1e-9);
+        assert!(p.x_sigma_trans_mm > 0.9, "{}", p.x_sigma_trans_mm);
+        cov[(0, 0)] = f64::NAN;
+        let d = DriftParams::default();
+        let p = d.clone().with_x_covariance(&cov);
+        assert_eq!(
+            (p.x_sigma_rot_deg, p.x_sigma_trans_mm),
+            (d.x_sigma_rot_deg, d.x_sigma_trans_mm)
+        );
     }
 
     /// The upper bound's promise (module docs): a translation bump of exactly the target

@@ -71,7 +71,7 @@
 //! the runner stamps them `trigger log_time + latency`.
 
 use image::GrayImage;
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Matrix6};
 
 use msgs::builtin_interfaces::Time;
 use msgs::rcl_interfaces::Log;
@@ -260,6 +260,9 @@ pub struct CalibrationStage {
     views: Vec<CalibView>,
     captures: usize,
     tool0_from_camera: Isometry3<f64>,
+    /// The covariance the calibration of `tool0_from_camera` reported (`None` for the
+    /// configured mount, or a calibration without one): the drift check's `x_sigma`.
+    x_covariance: Option<Matrix6<f64>>,
     last_edge_stamp: Option<u64>,
     accepted: usize,
     batch: Option<Batch>,
@@ -294,6 +297,7 @@ impl CalibrationStage {
         Self {
             tf: TfBuffer::new(config.tf_history_ns),
             tool0_from_camera: config.nominal_tool0_from_camera,
+            x_covariance: None,
             config,
             camera: None,
             pending: Vec::new(),
@@ -700,6 +704,7 @@ impl CalibrationStage {
         let t = s.tool0_from_camera.translation.vector * 1e3;
         if ok {
             self.tool0_from_camera = s.tool0_from_camera;
+            self.x_covariance = s.covariance;
             self.accepted += 1;
             let text = format!(
                 "self-calibration accepted ({}, {} views, {} pairs): tool0_from_camera t = [{:.2}, {:.2}, {:.2}] mm, {:.3} deg; residual {:.4} deg / {:.3} mm, sigma {:.4} deg / {:.3} mm; now the camera edge",
@@ -823,9 +828,16 @@ impl CalibrationStage {
             out.push(Self::log(Log::ERROR, log_time, text.clone()));
             return (TaskEvent::REFUSED, "cannot_tell", text);
         };
-        let params = DriftParams {
+        let mut params = DriftParams {
             selfcal: self.selfcal_params(&camera),
             ..DriftParams::default()
+        };
+        let x_source = match &self.x_covariance {
+            Some(cov) => {
+                params = params.with_x_covariance(cov);
+                "from its calibration's covariance"
+            }
+            None => "a typical self-calibration's: this X came with no covariance",
         };
         let report = check_drift(&self.views, &camera, &self.tool0_from_camera, &params);
         let numbers = report.estimate.as_ref().map_or_else(String::new, |e| {
@@ -839,6 +851,9 @@ impl CalibrationStage {
                 e.threshold_trans_mm,
                 e.detectable_rot_deg,
                 e.detectable_trans_mm
+            ) + &format!(
+                "; the X in use is taken to be within {:.3} deg / {:.2} mm (1-sigma per axis, {x_source})",
+                params.x_sigma_rot_deg, params.x_sigma_trans_mm
             )
         });
         let views = self.views.len();
