@@ -21,8 +21,8 @@ const CAMERA_FRAME: &str = msgs::frames::CAMERA_COLOR_OPTICAL_FRAME;
 pub enum CalibCommand {
     /// Hand-eye calibration (AX=XB) from hand and eye pose files (TUM format).
     Handeye(HandeyeArgs),
-    /// Match two images the way calibration does (ORB + quadtree, BF Hamming, GMS), or with
-    /// a baseline (--method).
+    /// Match two images the way the paper's calibration does (ORB + quadtree, BF Hamming,
+    /// GMS; `--distribution retain-best` as ours does), or with a baseline (--method).
     Match(MatchArgs),
     /// Hand-eye calibration from a recording of a chessboard (corners, PnP, AX=XB).
     Board(BoardArgs),
@@ -71,11 +71,11 @@ pub struct SelfArgs {
     /// every X the LM evaluates).
     #[arg(long, value_enum, default_value_t = WorldPointsArg::FixedFromStart)]
     pub eq15_world_points: WorldPointsArg,
-    /// ORB keypoint selection (method ours only): quadtree (the paper's) or retain-best (the
-    /// strongest corners; far more robust on noisy images, see `rodlog experiment noise
-    /// --orb-distribution`).
-    #[arg(long, value_enum, default_value_t = Distribution::Quadtree)]
-    pub distribution: Distribution,
+    /// ORB keypoint selection: quadtree (the paper's) or retain-best (the strongest corners;
+    /// far more robust on noisy images, see `rodlog experiment noise --orb-distribution`).
+    /// Default: the method's own (ours retain-best, the paper's quadtree).
+    #[arg(long, value_enum)]
+    pub distribution: Option<Distribution>,
 }
 
 /// `--eq15-world-points` of `calib self` ([`calib::selfcal::eq15::WorldPoints`]).
@@ -272,7 +272,9 @@ fn self_calibration(args: &SelfArgs) -> Result<()> {
     let (views, camera) = views_from_messages(&messages)
         .with_context(|| format!("cannot build calibration views from {}", args.rec.display()))?;
     let mut params = SelfCalParams::for_method(&camera, method);
-    params.orb.distribution = args.distribution.into();
+    if let Some(d) = args.distribution {
+        params.orb.distribution = d.into();
+    }
     params.eq15.world_points = match args.eq15_world_points {
         WorldPointsArg::Alternated => calib::selfcal::eq15::WorldPoints::Alternated,
         WorldPointsArg::Retriangulated => calib::selfcal::eq15::WorldPoints::Retriangulated,
@@ -367,7 +369,7 @@ fn write_calibrated_recording(
             captures_to_solve: captures,
             ignore_depth: args.mono,
             method,
-            orb_distribution: args.distribution.into(),
+            orb_distribution: args.distribution.map(Into::into),
             ..CalibrationStageConfig::default()
         };
         let stages: Vec<Box<dyn msgs::Stage + Send>> =
@@ -401,7 +403,9 @@ fn write_calibrated_recording(
                 .with("mode", if args.mono { "mono" } else { "auto" })
                 .with(
                     "orb_distribution",
-                    calib::features::KeypointDistribution::from(args.distribution).name(),
+                    args.distribution
+                        .map_or(method.keypoint_distribution(), Into::into)
+                        .name(),
                 ),
         )?;
         fanout.finish()?;

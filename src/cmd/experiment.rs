@@ -75,9 +75,10 @@ pub struct ExperimentOptions {
     pub no_reference: bool,
     /// ORB keypoint selection of our self-calibration in noise, motions and datasets (the
     /// other experiments ignore it): quadtree (the paper's) or retain-best (OpenCV's
-    /// strongest corners).
-    #[arg(long, value_enum, default_value_t = super::calib::Distribution::Quadtree)]
-    pub orb_distribution: super::calib::Distribution,
+    /// strongest corners). Default: ours' own, retain-best.
+    #[arg(long, value_enum)]
+    #[serde(default)]
+    pub orb_distribution: Option<super::calib::Distribution>,
     /// Switch a step of our self-calibration on in noise, motions and datasets (repeatable;
     /// the names of `rodlog calib self --with`): measures a step before it becomes a default.
     #[arg(long = "with", value_name = "STEP")]
@@ -295,7 +296,7 @@ fn run_named(
             seed: options.seed,
             image_scale: options.image_scale,
             reference: !options.no_reference,
-            orb_distribution: options.orb_distribution.into(),
+            orb_distribution: options.orb_distribution.map(Into::into),
             steps,
             speeds_mps: options.speeds.clone(),
             hours: options.hours.clone(),

@@ -243,7 +243,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     // Dataset 2: shecar.
     report.heading("Dataset 2: shecar (ZHI's sample)");
     let mut results = Results::new("datasets", settings.seed);
-    results.parameter("orb_distribution", settings.orb_distribution.name())?;
+    results.parameter("orb_distribution", settings.ours_distribution().name())?;
     results.parameter("ours_steps", settings.steps_changed())?;
     match &shecar {
         Ok(ShecarRecord {

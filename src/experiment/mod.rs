@@ -67,8 +67,8 @@ pub struct Settings {
     /// `--no-reference` turns them off.
     pub reference: bool,
     /// `--orb-distribution`: the ORB keypoint selection of our self-calibration in the
-    /// calibration experiments (default the paper's quadtree).
-    pub orb_distribution: calib::features::KeypointDistribution,
+    /// calibration experiments, `None` for ours' own ([`Settings::ours_distribution`]).
+    pub orb_distribution: Option<calib::features::KeypointDistribution>,
     /// `--with STEP` / `--without STEP`: our self-calibration's steps in the calibration
     /// experiments (noise, motions, datasets), `None` for [`calib::selfcal::Steps::ours`].
     pub steps: Option<calib::selfcal::Steps>,
@@ -92,12 +92,21 @@ pub struct Settings {
 }
 
 impl Settings {
+    /// Our self-calibration's keypoint selection: `--orb-distribution`, else ours' own.
+    pub fn ours_distribution(&self) -> calib::features::KeypointDistribution {
+        self.orb_distribution
+            .unwrap_or(calib::selfcal::SelfCalMethod::Ours.keypoint_distribution())
+    }
+
     /// The report's line on how "ours" differs from the default self-calibration
     /// (`--orb-distribution`, `--with`, `--without`), `None` when it does not.
     pub fn ours_variant_note(&self) -> Option<String> {
         let mut parts = Vec::new();
-        if self.orb_distribution != calib::features::KeypointDistribution::default() {
-            parts.push(format!("ORB keypoints by {}", self.orb_distribution.name()));
+        if self.ours_distribution() != calib::selfcal::SelfCalMethod::Ours.keypoint_distribution() {
+            parts.push(format!(
+                "ORB keypoints by {}",
+                self.ours_distribution().name()
+            ));
         }
         let changed = self.steps_changed();
         if !changed.is_empty() {

@@ -113,7 +113,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     results.seeds = seeds;
     results.parameter("trials", trials)?;
     results.parameter("views", &counts)?;
-    results.parameter("orb_distribution", settings.orb_distribution.name())?;
+    results.parameter("orb_distribution", settings.ours_distribution().name())?;
     results.parameter("ours_steps", settings.steps_changed())?;
     results.parameter("noise_sigma", NOISE_SIGMA)?;
     results.parameter("width", ctx.camera.width)?;

@@ -149,7 +149,7 @@ impl SimContext {
 /// (`--orb-distribution`, `--with` / `--without`).
 pub fn ours_params(camera: &CameraModel, settings: &Settings) -> SelfCalParams {
     let mut p = SelfCalParams::for_camera(camera);
-    p.orb.distribution = settings.orb_distribution;
+    p.orb.distribution = settings.ours_distribution();
     if let Some(steps) = settings.steps {
         p.steps = steps;
     }
@@ -939,7 +939,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     results.seeds = seeds;
     results.parameter("trials", trials)?;
     results.parameter("views", VIEWS)?;
-    results.parameter("orb_distribution", settings.orb_distribution.name())?;
+    results.parameter("orb_distribution", settings.ours_distribution().name())?;
     results.parameter("ours_steps", settings.steps_changed())?;
     results.parameter("noise_sigmas", NOISE_SIGMAS)?;
     results.parameter("depth_noise_per_sigma_m", DEPTH_NOISE_PER_SIGMA_M)?;

@@ -30,7 +30,8 @@ use crate::relpose::{CameraModel, EssentialParams, RigidRansacParams};
 /// Parameters of [`self_calibrate`]; every default is documented on its field.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SelfCalParams {
-    /// ORB (default: the paper's, 2000 features, 8 levels x1.2, FAST 20 -> 7).
+    /// ORB (default: the paper's, 2000 features, 8 levels x1.2, FAST 20 -> 7, with ours'
+    /// keypoint selection, [`SelfCalMethod::keypoint_distribution`]).
     pub orb: OrbParams,
     /// Brute-force matching (default: nearest neighbours, no cross-check: GMS wants them all).
     pub matching: MatchParams,
@@ -150,7 +151,10 @@ impl Default for ConsistencyLimits {
 impl Default for SelfCalParams {
     fn default() -> Self {
         Self {
-            orb: OrbParams::default(),
+            orb: OrbParams {
+                distribution: SelfCalMethod::Ours.keypoint_distribution(),
+                ..OrbParams::default()
+            },
             matching: MatchParams::default(),
             gms: GmsParams::default(),
             min_features: 100,
@@ -193,7 +197,7 @@ impl SelfCalParams {
         Self::for_method(camera, SelfCalMethod::Ours)
     }
 
-    /// [`SelfCalParams::for_camera`] with the steps of `method`.
+    /// [`SelfCalParams::for_camera`] with the steps and the keypoint selection of `method`.
     pub fn for_method(camera: &CameraModel, method: SelfCalMethod) -> Self {
         let mut p = Self::default();
         let area = f64::from(camera.width) * f64::from(camera.height);
@@ -204,6 +208,7 @@ impl SelfCalParams {
             p.gms.with_scale = true;
         }
         p.steps = method.steps();
+        p.orb.distribution = method.keypoint_distribution();
         p
     }
 }

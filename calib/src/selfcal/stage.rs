@@ -136,8 +136,9 @@ pub struct CalibrationStageConfig {
     pub ignore_depth: bool,
     /// RANSAC seed of [`SelfCalParams`]. Default [`SelfCalParams::default`]'s.
     pub seed: u64,
-    /// ORB keypoint selection of the calibration. Default the paper's quadtree.
-    pub orb_distribution: KeypointDistribution,
+    /// ORB keypoint selection of the calibration; `None` (default) for the method's own
+    /// ([`SelfCalMethod::keypoint_distribution`]).
+    pub orb_distribution: Option<KeypointDistribution>,
     /// The self-calibration method (its steps, [`SelfCalMethod::steps`]); its name is the
     /// `method` of `/calibration/hand_eye`. Default ours.
     pub method: SelfCalMethod,
@@ -159,7 +160,7 @@ impl Default for CalibrationStageConfig {
             tf_history_ns: 10_000_000_000,
             ignore_depth: false,
             seed: SelfCalParams::default().seed,
-            orb_distribution: KeypointDistribution::Quadtree,
+            orb_distribution: None,
             method: SelfCalMethod::Ours,
         }
     }
@@ -184,14 +185,16 @@ impl CalibrationStageConfig {
             0
         };
         let mut s = r.section("calibration");
+        const METHODS_OWN: &str = "method";
         let distribution = s.choice(
             "orb_distribution",
-            d.orb_distribution.name(),
+            d.orb_distribution.map_or(METHODS_OWN, KeypointDistribution::name),
             &[
+                METHODS_OWN,
                 KeypointDistribution::Quadtree.name(),
                 KeypointDistribution::RetainBest.name(),
             ],
-            "ORB keypoint selection: the paper's quadtree, or OpenCV's retain-best",
+            "ORB keypoint selection: the method's own (ours: retain-best; the paper's: quadtree), or one by name",
         )?;
         Ok(Self {
             latency: s.millis("latency_ms", d.latency, "stage latency")?,
@@ -227,11 +230,12 @@ impl CalibrationStageConfig {
             tf_wait: s.seconds("tf_wait_s", d.tf_wait, "longest wait for TF to reach an image stamp")?,
             ignore_depth: s.bool("mono", d.ignore_depth, "ignore depth: monocular calibration")?,
             seed: s.u64("seed", d.seed, "", "RANSAC seed")?,
-            orb_distribution: if distribution == KeypointDistribution::RetainBest.name() {
-                KeypointDistribution::RetainBest
-            } else {
-                KeypointDistribution::Quadtree
-            },
+            orb_distribution: [
+                KeypointDistribution::Quadtree,
+                KeypointDistribution::RetainBest,
+            ]
+            .into_iter()
+            .find(|k| k.name() == distribution),
             ..d
         })
     }
@@ -553,7 +557,9 @@ impl CalibrationStage {
     fn selfcal_params(&self, camera: &CameraModel) -> SelfCalParams {
         let mut p = SelfCalParams::for_method(camera, self.config.method);
         p.seed = self.config.seed;
-        p.orb.distribution = self.config.orb_distribution;
+        if let Some(d) = self.config.orb_distribution {
+            p.orb.distribution = d;
+        }
         p
     }
 

@@ -121,7 +121,7 @@ use robot::IkSettings;
 use self::action::{Running, Until};
 use self::flow::{Flow, Next};
 use self::inputs::RobotState;
-use self::memory::{Memory, Rod};
+use self::memory::Memory;
 use self::outputs::Outbox;
 use self::planning::Arm;
 use crate::motion::collision::ArmCollisionModel;
@@ -525,50 +525,45 @@ impl TaskStage {
     }
 
     /// The wind gate before a command: open, or hold (announced once per hold) and refuse
-    /// after the hold timeout. While the rod is on the wire ([`Self::at_the_wire`]) a hold
-    /// ends only when the gate has stayed open for the settling time (the gust's swing of the
-    /// conductor dies down).
+    /// after the hold timeout. At the rod on the wire ([`Self::at_the_wire`]) a hold is
+    /// followed by the settling time, with the gate open, before a command goes (the gust's
+    /// swing of the conductor dies down); a gust within it starts a new hold. The hold
+    /// timeout and budget count the time the gate was closed.
     fn wind_allows_commands(&mut self) -> bool {
         let now = self.task.robot.now;
         let verdict = self.task.robot.gate.verdict(now);
         if verdict.is_open() {
-            let Some(since) = self.holding_since else {
-                return true;
-            };
-            let settle = if self.at_the_wire() {
-                self.task.config.wind.settle_on_wire
-            } else {
-                RobotDuration::ZERO
-            };
-            let open_since = match self.settling_since {
-                Some(t) => t,
-                None => {
+            if let Some(since) = self.holding_since.take() {
+                self.held_for_wind = self.held_for_wind + now.saturating_duration_since(since);
+                let settle = self.task.config.wind.settle_on_wire;
+                if self.at_the_wire() && settle > RobotDuration::ZERO {
                     self.settling_since = Some(now);
-                    if settle > RobotDuration::ZERO {
-                        let state = self.step();
-                        self.task.event(
-                            TaskEvent::INFO,
-                            state,
-                            "settling_after_wind",
-                            format!(
-                                "the gust has passed ({}): waiting {:.0} s for the wire's swing to settle before moving at the rod on the wire",
-                                verdict.describe(),
-                                settle.as_secs_f64()
-                            ),
-                        );
-                    }
-                    now
+                    let state = self.step();
+                    self.task.event(
+                        TaskEvent::INFO,
+                        state,
+                        "settling_after_wind",
+                        format!(
+                            "the gust has passed ({}): waiting {:.0} s for the wire's swing to settle before moving at the rod on the wire",
+                            verdict.describe(),
+                            settle.as_secs_f64()
+                        ),
+                    );
+                }
+            }
+            return match self.settling_since {
+                Some(t)
+                    if now.saturating_duration_since(t) < self.task.config.wind.settle_on_wire =>
+                {
+                    false
+                }
+                _ => {
+                    self.settling_since = None;
+                    true
                 }
             };
-            if now.saturating_duration_since(open_since) >= settle {
-                self.held_for_wind = self.held_for_wind + now.saturating_duration_since(since);
-                self.holding_since = None;
-                self.settling_since = None;
-                return true;
-            }
-        } else {
-            self.settling_since = None;
         }
+        self.settling_since = None;
         // Announced once per hold: `advance` runs for every message of a tick, so
         // "since == now" would repeat it within the first tick.
         let announce = self.holding_since.is_none();
@@ -602,11 +597,17 @@ impl TaskStage {
         false
     }
 
-    /// Whether the rod is on the wire: the arm then works at a rod that swings with the
-    /// conductor (the release, the retreat from the hung rod, the remove up to and with the
-    /// unhook, which plans with the rod already held).
+    /// Whether the tool works at the handle of a rod on the wire, which swings with the
+    /// conductor: the hang's release, and the remove's grasp of the hung rod, the clamp's
+    /// opening and the unhook. (The retreat after the release starts 20 cm clear of it.)
     fn at_the_wire(&self) -> bool {
-        matches!(self.task.memory.rod, Rod::OnWire(_)) || self.step() == steps::unhook::NAME
+        [
+            steps::release::NAME,
+            steps::grasp_handle::NAME,
+            steps::open_clamp::NAME,
+            steps::unhook::NAME,
+        ]
+        .contains(&self.step())
     }
 
     /// Whether the running action waits for `until`.

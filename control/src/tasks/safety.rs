@@ -31,12 +31,14 @@
 //! 5 s for that sag). While the rod is on the wire the arm works at its handle, so a command
 //! sent the moment the gate reopens meets the handle where the swing carries it: on seeded
 //! sites at 3.5-4 m/s, 2 of 100 releases planned before a gust and sent as it passed went 4
-//! and 12 mm into the handle. So after a hold, while the rod is on the wire, commands wait
-//! until the gate has been open for [`WindGateParams::settle_on_wire`] (default 8 s: 1.6
-//! e-folding times, the swing down to a fifth, inside the plans' clearance); the wait counts
-//! towards the hold's timeout and budget. Longer is safer but costs operations: at 15 s,
-//! every hold at the wire (the hook's approach included) cut the 3.5 m/s hangs from 40 to 4
-//! of 50, refused for the wind, because gusts rarely leave the gate open that long.
+//! and 12 mm into the handle. So after a hold, while the tool works at the handle of a rod on
+//! the wire (the release; the remove's grasp, unclamping and unhook), commands wait until the
+//! gate has been open for [`WindGateParams::settle_on_wire`] (default 8 s: 1.6 e-folding
+//! times, the swing down to a fifth, inside the plans' clearance); a gust within that time
+//! starts a new hold, and the hold timeout and budget count the time the gate was closed.
+//! Longer, or wider, costs operations: at 15 s for every step at the wire (the hook's
+//! approach and the retreat included) and counting the settling as holding, the 3.5 m/s
+//! hangs fell from 40 to 4 of 50, refused for the wind.
 
 use msgs::{RobotDuration, RobotTime};
 
@@ -63,9 +65,9 @@ pub struct WindGateParams {
     /// A task whose holds for the wind add up to this in one operation refuses. Default 100 s
     /// (a hang takes about 150-200 s: it then ends before the 300 s limit).
     pub hold_budget: RobotDuration,
-    /// After a hold, while the rod is on the wire, the gate stays closed until it has been
-    /// open this long: the gust's swing of the conductor, and of the rod clamped on it,
-    /// settles before the arm moves at the rod. Default 8 s (module docs).
+    /// After a hold, while the tool works at the handle of a rod on the wire, commands wait
+    /// until the gate has been open this long: the gust's swing of the conductor, and of the
+    /// rod clamped on it, settles before the arm moves there. Default 8 s (module docs).
     pub settle_on_wire: RobotDuration,
 }
 

@@ -228,7 +228,7 @@ impl TaskConfig {
         wind.settle_on_wire = s.seconds(
             "wind_settle_s",
             wind.settle_on_wire,
-            "after a hold for the wind, while the arm works at the wire, wait this long with the gate open before moving (the conductor's swing settles)",
+            "after a hold for the wind, while the tool works at the handle of the rod on the wire, wait this long with the gate open before moving (the conductor's swing settles)",
         )?;
         let lighting = LightingParams {
             on_below_lux: s.f64_in(

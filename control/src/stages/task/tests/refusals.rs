@@ -487,3 +487,33 @@ fn a_gust_before_the_rod_is_on_the_wire_needs_no_settling() {
     assert_eq!(with_reason(&rig, "holding_for_wind").len(), 1);
     assert!(with_reason(&rig, "settling_after_wind").is_empty());
 }
+
+#[test]
+fn a_gust_within_the_settling_time_starts_a_new_hold_and_a_new_wait() {
+    let mut rig = Rig::with(TaskKind::Remove, |c, b| {
+        c.self_maintenance = false;
+        // Gusts at 2-7 s and 10-12 s: the second comes 3 s into the 8 s of settling.
+        b.wind = |t| {
+            Some(if (2.0..7.0).contains(&t) || (10.0..12.0).contains(&t) {
+                4.5
+            } else {
+                0.5
+            })
+        };
+    });
+    rig.run(LIMIT_S);
+    assert_done(&rig);
+    let holds = with_reason(&rig, "holding_for_wind");
+    assert_eq!(holds.len(), 2, "{holds:#?}");
+    assert!(holds.iter().all(|h| h.state == "unhook"), "{holds:#?}");
+    assert_eq!(with_reason(&rig, "settling_after_wind").len(), 2);
+    // The gate reopens with the reading at 12 s; the unhook goes 8 s later.
+    let first = motions_after(&rig, 2.0)
+        .first()
+        .copied()
+        .unwrap_or(f64::NAN);
+    assert!(
+        (20.0..21.0).contains(&first),
+        "first command after the gusts at {first} s"
+    );
+}
