@@ -21,8 +21,8 @@ const CAMERA_FRAME: &str = msgs::frames::CAMERA_COLOR_OPTICAL_FRAME;
 pub enum CalibCommand {
     /// Hand-eye calibration (AX=XB) from hand and eye pose files (TUM format).
     Handeye(HandeyeArgs),
-    /// Match two images the way the paper's calibration does (ORB + quadtree, BF Hamming,
-    /// GMS; `--distribution retain-best` as ours does), or with a baseline (--method).
+    /// Match two images the way calibration does (ORB + quadtree, BF Hamming, GMS), or with
+    /// a baseline (--method).
     Match(MatchArgs),
     /// Hand-eye calibration from a recording of a chessboard (corners, PnP, AX=XB).
     Board(BoardArgs),
@@ -73,7 +73,7 @@ pub struct SelfArgs {
     pub eq15_world_points: WorldPointsArg,
     /// ORB keypoint selection: quadtree (the paper's) or retain-best (the strongest corners;
     /// far more robust on noisy images, see `rodlog experiment noise --orb-distribution`).
-    /// Default: the method's own (ours retain-best, the paper's quadtree).
+    /// Default: the method's own (`SelfCalMethod::keypoint_distribution`: the quadtree).
     #[arg(long, value_enum)]
     pub distribution: Option<Distribution>,
 }

@@ -834,8 +834,10 @@ impl CalibrationStage {
             out.push(Self::log(Log::ERROR, log_time, text.clone()));
             return (TaskEvent::REFUSED, "cannot_tell", text);
         };
+        let mut selfcal = self.selfcal_params(&camera);
+        selfcal.orb.distribution = super::drift::DRIFT_KEYPOINT_DISTRIBUTION;
         let mut params = DriftParams {
-            selfcal: self.selfcal_params(&camera),
+            selfcal,
             ..DriftParams::default()
         };
         let x_source = match &self.x_covariance {
