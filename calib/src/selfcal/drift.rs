@@ -159,7 +159,7 @@ use nalgebra::{
 
 use super::pairs::{PairRejection, RejectionCounts};
 use super::pipeline::{PairMotions, SelfCalParams, pair_motions, relative_motion};
-use super::solve::scales_from_x;
+use super::solve::{distinct_views, scales_from_x};
 use super::views::CalibView;
 use super::{Mode, SelfCalError};
 use crate::handeye::refine::{apply_x_step, normal_equations_x, pair_residual};
@@ -857,13 +857,12 @@ fn estimate_change(
     let p = motions.len();
     let per_pair = if per_scale { 5 } else { 6 };
     let dof = (per_pair * p).saturating_sub(6);
-    let mut views: Vec<usize> = motions
-        .iter()
-        .filter_map(|(k, _)| pairs.get(*k))
-        .flat_map(|pr| [pr.i, pr.j])
-        .collect();
-    views.sort_unstable();
-    views.dedup();
+    let views = distinct_views(
+        motions
+            .iter()
+            .filter_map(|(k, _)| pairs.get(*k))
+            .map(|pr| (pr.i, pr.j)),
+    );
     let independent = views.len().saturating_sub(1).clamp(1, p.max(1));
     let inflation = p as f64 / independent as f64 * (n.chi2 / dof.max(1) as f64).max(1.0);
     let (var_rot, var_t) = match n.h.try_inverse() {

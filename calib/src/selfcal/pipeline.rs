@@ -16,7 +16,8 @@ use super::pairs::{
     PairMatches, PairRejection, Refused, candidate_pairs, extract_features, hand_motion, match_pair,
 };
 use super::solve::{
-    TrackInputs, median, scales_from_x, solve_mono, solve_rgbd, too_few_pairs, used_indices,
+    TrackInputs, distinct_views, median, scales_from_x, solve_mono, solve_rgbd, too_few_pairs,
+    used_indices,
 };
 use super::views::{CalibView, validate_views};
 use super::{ConsistencyRule, MIN_PAIRS, Mode, SelfCalError};
@@ -462,13 +463,12 @@ fn jackknife_epipolar(
 ) -> Option<nalgebra::Matrix6<f64>> {
     let pairs = epipolar_pairs(camera, matches, reports, motions);
     let ep = epipolar_params(camera, params);
-    let mut views: Vec<usize> = pairs
-        .iter()
-        .filter_map(|(k, _)| reports.get(*k))
-        .flat_map(|r| [r.i, r.j])
-        .collect();
-    views.sort_unstable();
-    views.dedup();
+    let views = distinct_views(
+        pairs
+            .iter()
+            .filter_map(|(k, _)| reports.get(*k))
+            .map(|r| (r.i, r.j)),
+    );
     let x = solution.tool0_from_camera;
     uncertainty::jackknife_over_views(views.len(), &x, |k| {
         let left_out = *views.get(k)?;
@@ -784,14 +784,14 @@ fn handeye_options(params: &SelfCalParams) -> HandEyeOptions {
 /// Views that appear in the used pairs, minus one: the number of independent motions the
 /// `P` used pairs are built from ([`uncertainty`]'s `M`).
 fn independent_motions(reports: &[PairReport]) -> usize {
-    let mut seen: Vec<usize> = reports
-        .iter()
-        .filter(|r| r.rejected.is_none())
-        .flat_map(|r| [r.i, r.j])
-        .collect();
-    seen.sort_unstable();
-    seen.dedup();
-    seen.len().saturating_sub(1)
+    distinct_views(
+        reports
+            .iter()
+            .filter(|r| r.rejected.is_none())
+            .map(|r| (r.i, r.j)),
+    )
+    .len()
+    .saturating_sub(1)
 }
 
 /// The 1-sigma uncertainty of the final X over the used pairs, with the two corrections the
@@ -834,13 +834,11 @@ fn jackknife_over_views(
     solution: &HandEyeSolution,
 ) -> Option<nalgebra::Matrix6<f64>> {
     let used = used_indices(reports);
-    let mut views: Vec<usize> = used
-        .iter()
-        .filter_map(|&k| reports.get(k))
-        .flat_map(|r| [r.i, r.j])
-        .collect();
-    views.sort_unstable();
-    views.dedup();
+    let views = distinct_views(
+        used.iter()
+            .filter_map(|&k| reports.get(k))
+            .map(|r| (r.i, r.j)),
+    );
     let x = solution.tool0_from_camera;
     uncertainty::jackknife_over_views(views.len(), &x, |k| {
         let left_out = *views.get(k)?;

@@ -75,6 +75,14 @@ pub(crate) fn used_indices(reports: &[PairReport]) -> Vec<usize> {
         .collect()
 }
 
+/// The distinct views (ascending) of the pairs `(i, j)`.
+pub(crate) fn distinct_views(pairs: impl IntoIterator<Item = (usize, usize)>) -> Vec<usize> {
+    let mut views: Vec<usize> = pairs.into_iter().flat_map(|(i, j)| [i, j]).collect();
+    views.sort_unstable();
+    views.dedup();
+    views
+}
+
 pub(crate) type Solved = (HandEyeSolution, Isometry3<f64>, Option<Eq15Report>);
 
 /// What the final refinement of [`solve_rgbd`] needs besides the motions: the views, the
