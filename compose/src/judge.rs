@@ -253,10 +253,15 @@ impl Truth {
                 Err(c) => capsules.push(c),
             }
         }
+        // The ground: a slab 1 m thick under the (possibly graded) yard's surface.
+        let ground = layout.ground;
         boxes.push((
             "ground".to_owned(),
             OrientedBox {
-                frame_from_box: Isometry3::translation(spot.x, spot.y, -0.5),
+                frame_from_box: Isometry3::from_parts(
+                    Translation3::from(ground.point_under(spot.x, spot.y).coords),
+                    ground.tilt(),
+                ) * Isometry3::translation(0.0, 0.0, -0.5),
                 half_extents_m: Vector3::new(50.0, 50.0, 0.5),
             },
         ));

@@ -10,16 +10,22 @@
 //! `dyaw_odo = dyaw (1 + N(0, 2 %)) + N(0, 1e-4) |ds|` per 1 ms tick
 //! ([`ODOMETRY_SIGMA_REL`], [`ODOMETRY_YAW_SIGMA_REL`], [`ODOMETRY_YAW_PER_M`]): unbiased,
 //! drifting with distance travelled; no drift while standing still.
+//!
+//! Ground: the base rests on the yard's ground ([`BaseSim::on_ground`]): on a graded yard its
+//! true pose is raised to the ground's height and tilted to its normal. The odometry stays
+//! planar (wheel encoders measure neither), so the tilt, like the drift, is a difference
+//! between the truth and what the robot believes.
 
 use msgs::RobotTime;
 use msgs::drivers::{BaseDriver, DriverError};
 use msgs::frames::{BASE_LINK, MAP};
 use msgs::geometry_msgs::{PoseStamped, TransformStamped};
-use nalgebra::{Isometry3, Quaternion, UnitQuaternion};
+use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use robot::se3::{planar_pose, wrap_to_pi};
 
 use crate::arm::{TICK_S, TickClock};
 use crate::rng::{self, streams};
+use crate::scene::GroundPlane;
 
 /// Producer of the odometry.
 pub const BASE_DRIVER: &str = "base_driver";
@@ -102,6 +108,7 @@ pub struct BaseSim {
     odometry: Planar,
     goal: Option<Planar>,
     drift: bool,
+    ground: GroundPlane,
     clock: TickClock,
 }
 
@@ -115,6 +122,7 @@ impl BaseSim {
             odometry: start,
             goal: None,
             drift,
+            ground: GroundPlane::level(0.0),
             clock: TickClock {
                 ticks: 0,
                 last: RobotTime::ZERO,
@@ -122,10 +130,25 @@ impl BaseSim {
         }
     }
 
-    /// True `map_from_base_link`.
+    /// The same base resting on `ground` (module docs); level ground at height 0 otherwise.
+    #[must_use]
+    pub fn on_ground(self, ground: GroundPlane) -> Self {
+        Self { ground, ..self }
+    }
+
+    /// True `map_from_base_link`: the planar pose raised onto the ground and tilted to its
+    /// normal, `T(x, y, h(x, y)) R_tilt R_z(yaw)`.
     #[must_use]
     pub fn map_from_base(&self) -> Isometry3<f64> {
-        self.truth.isometry()
+        let planar = self.truth.isometry();
+        if self.ground.is_level() && self.ground.height_m == 0.0 {
+            return planar;
+        }
+        let t = &self.truth;
+        Isometry3::from_parts(
+            Translation3::from(self.ground.point_under(t.x_m, t.y_m).coords),
+            self.ground.tilt() * planar.rotation,
+        )
     }
 
     /// True planar pose.
@@ -289,6 +312,34 @@ mod tests {
         assert!(path.iter().all(|p| p.x_m == at.x_m && p.y_m == at.y_m));
         assert!(path.iter().all(|p| (0.0..=0.1).contains(&p.yaw_rad)));
         assert_eq!(path.len(), 6);
+    }
+
+    /// On a graded yard the true base rests on the ground (origin on the plane, z axis
+    /// along its normal, heading kept), while the odometry stays planar; on level ground the
+    /// truth is the planar pose.
+    #[test]
+    fn the_true_base_rests_on_the_graded_ground() {
+        let start = Planar {
+            x_m: 4.0,
+            y_m: -1.0,
+            yaw_rad: 0.7,
+        };
+        let ground = GroundPlane {
+            height_m: 0.0,
+            origin_xy_m: [0.0, 0.0],
+            grade: [0.015, -0.008],
+        };
+        let b = BaseSim::new(1, start, false).on_ground(ground);
+        let pose = b.map_from_base();
+        let o = pose.translation.vector;
+        assert!((o.z - ground.height_at(4.0, -1.0)).abs() < 1e-12 && o.z.abs() > 0.05);
+        assert!((pose.rotation * nalgebra::Vector3::z() - ground.normal()).norm() < 1e-12);
+        let forward = pose.rotation * nalgebra::Vector3::x();
+        assert!((forward.y.atan2(forward.x) - 0.7).abs() < 1e-3);
+        assert!(forward.dot(&ground.normal()).abs() < 1e-12);
+        assert_eq!(b.odometry_pose(), start);
+        let level = BaseSim::new(1, start, false);
+        assert_eq!(level.map_from_base(), start.isometry());
     }
 
     #[test]

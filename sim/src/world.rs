@@ -208,7 +208,7 @@ impl SimWorld {
             arm: ArmSim::new(seed, true_dh, r.home_rad, sigma),
             lift: LiftSim::new(seed, r.lift_m, r.encoder_noise),
             clamp: ClampSim::new(seed, r.encoder_noise),
-            base: BaseSim::new(seed, start, r.odometry_drift),
+            base: BaseSim::new(seed, start, r.odometry_drift).on_ground(layout.ground),
             wrist: WristCamera::new(&scenario.camera, seed)?,
             light: scenario.camera.light.then(WristLightSim::new),
             panoramic: PanoramicCamera::new(&scenario.panoramic, seed)?,

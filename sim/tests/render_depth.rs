@@ -20,7 +20,7 @@ fn one_shape(shape: Option<Shape>, ground: bool) -> Result<Scene, Box<dyn std::e
         b.add(s, m);
     }
     if ground {
-        b.ground(0.0, m);
+        b.ground(sim::scene::GroundPlane::level(0.0), m);
     }
     Ok(b.build()?)
 }

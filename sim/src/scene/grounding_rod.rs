@@ -127,9 +127,9 @@ pub fn add_rod(b: &mut SceneBuilder, world_from_rod: Isometry3<f64>) -> ObjectId
 }
 
 /// Adds the rack (static) at `world_from_rack`: a base plate, an upright post and two
-/// C-shaped holders around the stored rod, on a pedestal down to the ground when the rack
-/// frame is above it.
-pub fn add_rack(b: &mut SceneBuilder, world_from_rack: &Isometry3<f64>) {
+/// C-shaped holders around the stored rod, on a pedestal down to the ground (at height
+/// `ground_z_m` under the rack) when the rack frame is above it.
+pub fn add_rack(b: &mut SceneBuilder, world_from_rack: &Isometry3<f64>, ground_z_m: f64) {
     let paint = b.material(
         Material::matte(
             [0.55, 0.42, 0.05],
@@ -160,7 +160,7 @@ pub fn add_rack(b: &mut SceneBuilder, world_from_rack: &Isometry3<f64>) {
     };
     b.add(place([0.0, 0.05, 0.01], [0.2, 0.2, 0.01]), plate);
     // The pedestal the rack stands on (from the ground to the rack frame).
-    let pedestal_m = world_from_rack.translation.z;
+    let pedestal_m = world_from_rack.translation.z - ground_z_m;
     if pedestal_m > 0.01 {
         b.add(
             place(

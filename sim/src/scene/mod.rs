@@ -7,10 +7,11 @@
 //!   changes `world_from_object` (an `Isometry3<f64>`), so wire sway and rod motion between
 //!   captures cost O(1). Rays are mapped into the object frame (`object_from_world`), which
 //!   preserves distances, so hit distances from all hierarchies compare directly.
-//! * The ground is the analytic plane `z = ground_height_m` (not in a BVH).
+//! * The ground is an analytic plane, level or graded ([`ground`]; not in a BVH).
 
 pub mod bvh;
 pub mod catenary;
+pub mod ground;
 pub mod grounding_rod;
 pub mod noise;
 pub mod primitives;
@@ -23,6 +24,7 @@ use nalgebra::{Isometry3, Point3, Vector3};
 use bvh::Bvh;
 pub use bvh::{Candidates, Slab};
 pub use catenary::Catenary;
+pub use ground::{Ground, GroundPlane};
 pub use primitives::{Aabb, Primitive, Ray, Shape};
 pub use substation::{SubstationBuilder, SubstationLayout, SubstationParams};
 pub use textures::{Material, Shading, Texture};
@@ -162,37 +164,6 @@ pub struct SurfacePoint {
     pub material: MaterialId,
 }
 
-/// The ground plane.
-#[derive(Clone, Copy, Debug)]
-pub struct Ground {
-    /// Height of the plane `z = height_m`.
-    pub height_m: f64,
-    /// Its material.
-    pub material: MaterialId,
-}
-
-impl Ground {
-    /// Distance `t = (h - o_z) / d_z` to the plane along `ray` if it lies in
-    /// `(t_min, t_max)`. With `t_min >= 0` a ray whose numerator and `d_z` differ in sign
-    /// (or with a zero numerator) has `t <= 0` and is answered without the division (most
-    /// shadow rays and every upward primary ray): the same answer, one division fewer.
-    #[inline]
-    #[must_use]
-    pub fn hit(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<f64> {
-        let dz = ray.dir.z;
-        if dz == 0.0 {
-            return None;
-        }
-        let num = self.height_m - ray.origin.z;
-        let towards = (num > 0.0 && dz > 0.0) || (num < 0.0 && dz < 0.0);
-        if t_min >= 0.0 && !towards {
-            return None;
-        }
-        let t = num / dz;
-        (t > t_min && t < t_max).then_some(t)
-    }
-}
-
 /// A renderable world: static BVH, ground plane, movable objects and materials.
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -225,14 +196,28 @@ impl SceneBuilder {
         id
     }
 
-    /// Sets the ground plane.
-    pub fn ground(&mut self, height_m: f64, material: MaterialId) {
-        self.ground = Some(Ground { height_m, material });
+    /// Sets the ground.
+    pub fn ground(&mut self, plane: GroundPlane, material: MaterialId) {
+        self.ground = Some(Ground { plane, material });
     }
 
     /// Adds a static primitive.
     pub fn add(&mut self, shape: Shape, material: MaterialId) {
         self.statics.push(Primitive { shape, material });
+    }
+
+    /// Adds the static primitives `build` adds, raised by `dz_m`: a structure designed
+    /// standing at `z = 0`, placed on ground of height `dz_m`.
+    pub fn raised<T>(&mut self, dz_m: f64, build: impl FnOnce(&mut Self) -> T) -> T {
+        let first = self.statics.len();
+        let built = build(self);
+        if dz_m != 0.0 {
+            let up = Vector3::new(0.0, 0.0, dz_m);
+            for p in &mut self.statics[first..] {
+                p.shape.translate(&up);
+            }
+        }
+        built
     }
 
     /// Adds a movable object whose primitives are given in its own frame; returns its id.
@@ -738,7 +723,7 @@ impl Scene {
                 let g = self.ground?;
                 Some(SurfacePoint {
                     point: p,
-                    normal: Vector3::z(),
+                    normal: g.plane.normal(),
                     uv_m: [p.x, p.y],
                     face: 0,
                     material: g.material,
@@ -768,44 +753,5 @@ impl Scene {
                 })
             }
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The sign shortcut of [`Ground::hit`] gives the plain division's answer, bit for bit,
-    /// for rays towards and away from the plane, parallel ones, origins on it, and negative
-    /// `t_min`.
-    #[test]
-    fn ground_hit_equals_the_plain_division() {
-        let g = Ground {
-            height_m: 0.25,
-            material: MaterialId(0),
-        };
-        let plain = |ray: &Ray, t_min: f64, t_max: f64| {
-            if ray.dir.z == 0.0 {
-                return None;
-            }
-            let t = (g.height_m - ray.origin.z) / ray.dir.z;
-            (t > t_min && t < t_max).then_some(t)
-        };
-        let mut hits = 0;
-        for i in 0..4000_u32 {
-            let f = |k: u32| f64::from((i.wrapping_mul(2_654_435_761) >> k) % 1000) / 500.0 - 1.0;
-            let z0 = [0.25, -3.0, 0.250_000_1, 4.0][(i % 4) as usize];
-            let dz = if i % 7 == 0 { 0.0 } else { f(3) };
-            let ray = Ray {
-                origin: Point3::new(f(1), f(2), z0),
-                dir: Vector3::new(f(5), f(7), dz),
-            };
-            for (t_min, t_max) in [(0.0, f64::INFINITY), (1e-6, 2.0), (-5.0, 5.0)] {
-                let (a, b) = (g.hit(&ray, t_min, t_max), plain(&ray, t_min, t_max));
-                assert_eq!(a.map(f64::to_bits), b.map(f64::to_bits), "{ray:?}");
-                hits += usize::from(a.is_some());
-            }
-        }
-        assert!(hits > 1000, "{hits}");
     }
 }

@@ -225,6 +225,14 @@ pub fn perpendicular(a: &Vector3<f64>) -> Vector3<f64> {
 }
 
 impl Shape {
+    /// Moves the shape by `v`.
+    pub fn translate(&mut self, v: &Vector3<f64>) {
+        match self {
+            Self::Sphere { center, .. } | Self::Box { center, .. } => *center += v,
+            Self::Cylinder { base, .. } => *base += v,
+        }
+    }
+
     /// Bounding box.
     #[must_use]
     pub fn bounds(&self) -> Aabb {

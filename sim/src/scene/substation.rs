@@ -30,7 +30,7 @@ use super::grounding_rod::{self, rack_from_rod};
 use super::noise::{hash_u32, unit_f32};
 use super::primitives::{Primitive, Shape, perpendicular};
 use super::textures::{Material, Shading, Texture};
-use super::{MaterialId, ObjectId, Scene, SceneBuilder, SceneError};
+use super::{GroundPlane, MaterialId, ObjectId, Scene, SceneBuilder, SceneError};
 
 /// Errors of the substation builder.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -91,6 +91,10 @@ pub struct SubstationParams {
     /// Shift of the rod rack from its place beside the working spot (m, `[x, y]`) and its
     /// yaw error (rad). Default 0.
     pub rack_shift: [f64; 3],
+    /// The yard's grade (rise over run along x and y) through the working spot's nominal
+    /// point: the ground, the structures standing on it and the robot's base follow it
+    /// ([`GroundPlane`]). Default level.
+    pub ground_grade: [f64; 2],
 }
 
 impl Default for SubstationParams {
@@ -106,6 +110,7 @@ impl Default for SubstationParams {
             work_position_m: 0.0,
             cabinet_shift_m: [0.0; 2],
             rack_shift: [0.0; 3],
+            ground_grade: [0.0; 2],
         }
     }
 }
@@ -135,12 +140,18 @@ pub mod seeded_ranges {
     pub const RACK_SHIFT_M: f64 = 0.04;
     /// Rack yaw (deg).
     pub const RACK_YAW_DEG: f64 = 4.0;
+    /// The yard's grade (rise over run), drawn uniform in this range in a uniform direction:
+    /// flat yards, the usual profile, are still graded so that rain drains off (NEA
+    /// Engineering Bulletin SS1120, "Substation Site Design", after the REA/RUS guide), and a
+    /// gravelled or paved surface is graded no flatter than 0.5 % and, as a rule, no steeper
+    /// than 2 %.
+    pub const GROUND_GRADE: [f64; 2] = [0.005, 0.02];
 }
 
 impl SubstationParams {
     /// A bay drawn from `seed` (stream [`crate::rng::streams::SITE`]): every value of
-    /// [`seeded_ranges`] uniform around the default bay. The ground stays level (a yard's
-    /// 0.5-2% drainage slope is not modelled).
+    /// [`seeded_ranges`] uniform around the default bay, and the ground graded by
+    /// [`seeded_ranges::GROUND_GRADE`] in a uniform direction.
     #[must_use]
     pub fn seeded(seed: u64) -> Self {
         use seeded_ranges as r;
@@ -168,6 +179,12 @@ impl SubstationParams {
                 draw(0.0, r::RACK_SHIFT_M),
                 draw(0.0, r::RACK_YAW_DEG).to_radians(),
             ],
+            ground_grade: {
+                let [lo, hi] = r::GROUND_GRADE;
+                let grade = draw(0.5 * (lo + hi), 0.5 * (hi - lo));
+                let direction_rad = draw(0.0, std::f64::consts::PI);
+                [grade * direction_rad.cos(), grade * direction_rad.sin()]
+            },
             ..d
         }
     }
@@ -198,6 +215,9 @@ pub struct SubstationLayout {
     pub world_from_rod_stored: Isometry3<f64>,
     /// The rod's object id.
     pub rod_object: ObjectId,
+    /// The ground ([`SubstationParams::ground_grade`] through the working spot's nominal
+    /// point at height 0).
+    pub ground: GroundPlane,
 }
 
 impl SubstationLayout {
@@ -326,6 +346,10 @@ impl SubstationBuilder {
         ] {
             check(name, v, -0.5, 0.5)?;
         }
+        // Steeper than 5 % the yard is no longer "flat" and the robot's base would need its
+        // outriggers: out of this bay's scope.
+        check("ground_grade", p.ground_grade[0], -0.05, 0.05)?;
+        check("ground_grade", p.ground_grade[1], -0.05, 0.05)?;
         let mut dice = Dice {
             state: hash_u32((self.seed as u32) ^ hash_u32((self.seed >> 32) as u32)),
         };
@@ -339,10 +363,21 @@ impl SubstationBuilder {
             )
             .with_accent([0.2, 0.18, 0.16]),
         );
-        b.ground(0.0, gravel);
-
-        // Road strip along x, south of the robot spot.
+        // The working spot's nominal point: the ground's height is 0 there.
+        let x_robot = p.span_m / 2.0 + p.work_position_m;
         let y_robot = -p.robot_offset_m;
+        let ground = GroundPlane {
+            height_m: 0.0,
+            origin_xy_m: [x_robot, y_robot],
+            grade: p.ground_grade,
+        };
+        b.ground(ground, gravel);
+        // A level structure rests on the lowest point of the ground under its footprint
+        // (the ground covers its foundation's uphill side).
+        let rest = |x: f64, y: f64, half: [f64; 2]| ground.lowest_under(x, y, half);
+        let tilt = ground.tilt().to_rotation_matrix().into_inner();
+
+        // Road strip along x, south of the robot spot (slabs laid on the grade).
         // (Slabs of 3 m: one long box would give the BVH a node spanning the whole bay.)
         let (x0, x1) = (-6.0, p.span_m + 6.0);
         let slabs = ((x1 - x0) / 3.0).ceil() as usize;
@@ -350,13 +385,20 @@ impl SubstationBuilder {
         for i in 0..slabs {
             let xc = x0 + slab * (i as f64 + 0.5);
             b.add(
-                abox([xc, y_robot - 2.6, 0.0], [slab / 2.0 - 0.005, 1.2, 0.02]),
+                Shape::Box {
+                    center: ground.point_under(xc, y_robot - 2.6),
+                    rotation: tilt,
+                    half_extents_m: Vector3::new(slab / 2.0 - 0.005, 1.2, 0.02),
+                },
                 m.road,
             );
         }
 
-        // Gantries.
+        // Gantries: each column on its own foundation, up to a level beam; the beam's
+        // height (and the strings' and conductors' with it) counts from the ground under the
+        // gantry's centre.
         let half_w = 1.5 * p.phase_spacing_m + 1.2;
+        let gantry_ground = |xg: f64| ground.height_at(xg, 0.0);
         for xg in [0.0, p.span_m] {
             for yc in [-half_w, half_w] {
                 lattice_column(
@@ -365,7 +407,10 @@ impl SubstationBuilder {
                     m.concrete,
                     [xg, yc],
                     0.36,
-                    p.gantry_height_m,
+                    [
+                        ground.height_at(xg, yc),
+                        gantry_ground(xg) + p.gantry_height_m,
+                    ],
                 );
             }
             lattice_beam(
@@ -374,7 +419,7 @@ impl SubstationBuilder {
                 xg,
                 -half_w,
                 half_w,
-                p.gantry_height_m - 0.72,
+                gantry_ground(xg) + p.gantry_height_m - 0.72,
                 0.36,
             );
         }
@@ -387,11 +432,12 @@ impl SubstationBuilder {
             .enumerate()
         {
             let top = p.gantry_height_m - 0.72;
-            let a0 = Point3::new(p.string_length_m, yp, p.attach_height_m);
-            let a1 = Point3::new(p.span_m - p.string_length_m, yp, p.attach_height_m);
+            let (g0, g1) = (gantry_ground(0.0), gantry_ground(p.span_m));
+            let a0 = Point3::new(p.string_length_m, yp, g0 + p.attach_height_m);
+            let a1 = Point3::new(p.span_m - p.string_length_m, yp, g1 + p.attach_height_m);
             let disc = if k == 1 { m.glass } else { m.porcelain };
-            insulator_string(&mut b, disc, m.cap, Point3::new(0.0, yp, top), a0);
-            insulator_string(&mut b, disc, m.cap, Point3::new(p.span_m, yp, top), a1);
+            insulator_string(&mut b, disc, m.cap, Point3::new(0.0, yp, g0 + top), a0);
+            insulator_string(&mut b, disc, m.cap, Point3::new(p.span_m, yp, g1 + top), a1);
             let cat = Catenary::new(a0, a1, p.sag_m)?;
             let segs = (cat.span_m() / 0.2).ceil() as usize;
             let pts = cat.polyline(segs);
@@ -423,53 +469,49 @@ impl SubstationBuilder {
             for xs in [3.2, p.span_m - 4.7] {
                 let x = xs + dice.range(-0.1, 0.1);
                 let disc = if k == 1 { m.porcelain } else { m.glass };
-                disconnect_switch(&mut b, &m, disc, x, yp);
+                b.raised(rest(x + 0.75, yp, [1.15, 0.4]), |b| {
+                    disconnect_switch(b, &m, disc, x, yp);
+                });
             }
         }
 
         // Equipment boxes (seeded placement along the north side).
-        kiosk(
-            &mut b,
-            &m,
-            Point3::new(p.span_m * 0.5 + dice.range(-3.0, 3.0), half_w + 3.0, 0.0),
-            &mut dice,
-        );
+        let at = Point3::new(p.span_m * 0.5 + dice.range(-3.0, 3.0), half_w + 3.0, 0.0);
+        b.raised(rest(at.x, at.y, [1.8, 1.2]), |b| {
+            kiosk(b, &m, at, &mut dice)
+        });
         let n_boxes = 3 + (dice.next() * 3.0) as usize;
         for i in 0..n_boxes {
             let x = p.span_m * (i as f64 + 0.5) / n_boxes as f64 + dice.range(-1.0, 1.0);
             let y = half_w + dice.range(-1.8, -0.6);
             let mat = if i % 2 == 0 { m.plain_box } else { m.kiosk };
-            marshalling_box(
-                &mut b,
-                &m,
-                mat,
-                Point3::new(x, y, 0.0),
-                dice.range(0.4, 0.8),
-            );
+            let size = dice.range(0.4, 0.8);
+            b.raised(rest(x, y, [0.6 * size + 0.03, 0.03]), |b| {
+                marshalling_box(b, &m, mat, Point3::new(x, y, 0.0), size);
+            });
         }
         // A nearly textureless big box (transformer-like) on the south side.
-        b.add(
-            abox([p.span_m * 0.3, -half_w - 3.5, 1.3], [1.6, 1.2, 1.3]),
-            m.plain_box,
-        );
-        b.add(
-            abox([p.span_m * 0.3, -half_w - 3.5, 0.1], [1.9, 1.5, 0.1]),
-            m.concrete,
-        );
+        let (xt, yt) = (p.span_m * 0.3, -half_w - 3.5);
+        b.raised(rest(xt, yt, [1.9, 1.5]), |b| {
+            b.add(abox([xt, yt, 1.3], [1.6, 1.2, 1.3]), m.plain_box);
+            b.add(abox([xt, yt, 0.1], [1.9, 1.5, 0.1]), m.concrete);
+        });
 
         // Calibration scene next to the robot spot, the rack and the rod.
-        let x_robot = p.span_m / 2.0 + p.work_position_m;
         let world_from_robot_spot = Isometry3::from_parts(
             Translation3::new(x_robot, y_robot, 0.0),
             UnitQuaternion::from_axis_angle(&Vector3::z_axis(), std::f64::consts::FRAC_PI_2),
         );
-        let (calib_center, calib_normal) = calibration_cabinet(
-            &mut b,
-            &m,
+        let (x_front, y_cabinet) = (
             x_robot + 1.35 + p.cabinet_shift_m[0],
             y_robot + p.cabinet_shift_m[1],
-            &mut dice,
         );
+        // The cluster's footprint: the cabinet's foundation and, towards -y, the tray's posts.
+        let cabinet_ground = rest(x_front + 0.3, y_cabinet - 1.2, [0.4, 2.1]);
+        let (calib_center, calib_normal) = b.raised(cabinet_ground, |b| {
+            calibration_cabinet(b, &m, x_front, y_cabinet, &mut dice)
+        });
+        let calib_center = calib_center + Vector3::new(0.0, 0.0, cabinet_ground);
         // The rack stands beside the working spot on a pedestal, in the arm's reach with the
         // lift lowered (0.85 m from the base centre, on its left and a little behind), its
         // rod's hook opening facing away from the base so the gripper reaches the handle from
@@ -478,15 +520,17 @@ impl SubstationBuilder {
         let rack_position = world_from_robot_spot * Point3::from(rack_in_base);
         let rack_yaw =
             world_from_robot_spot.rotation.euler_angles().2 + rack_in_base.y.atan2(rack_in_base.x);
+        let (x_rack, y_rack) = (
+            rack_position.x + p.rack_shift[0],
+            rack_position.y + p.rack_shift[1],
+        );
+        // The pedestal's footprint is 0.44 m square (turned: 0.32 m half width covers it).
+        let rack_ground = rest(x_rack, y_rack, [0.32, 0.32]);
         let world_from_rack = Isometry3::from_parts(
-            Translation3::new(
-                rack_position.x + p.rack_shift[0],
-                rack_position.y + p.rack_shift[1],
-                RACK_PEDESTAL_M,
-            ),
+            Translation3::new(x_rack, y_rack, rack_ground + RACK_PEDESTAL_M),
             UnitQuaternion::from_axis_angle(&Vector3::z_axis(), rack_yaw + p.rack_shift[2]),
         );
-        grounding_rod::add_rack(&mut b, &world_from_rack);
+        grounding_rod::add_rack(&mut b, &world_from_rack, rack_ground);
         let world_from_rod_stored = world_from_rack * rack_from_rod();
         let rod_object = grounding_rod::add_rod(&mut b, world_from_rod_stored);
 
@@ -502,6 +546,7 @@ impl SubstationBuilder {
             world_from_rack,
             world_from_rod_stored,
             rod_object,
+            ground,
         };
         Ok((scene, layout))
     }
@@ -730,17 +775,22 @@ fn angle(
     }
 }
 
-/// Square lattice column of half width `a` centred at `c`, from the foundation to `height`.
+/// Square lattice column of half width `a` centred at `c`, from its foundation on ground of
+/// height `z[0]` up to the height `z[1]`.
 fn lattice_column(
     b: &mut SceneBuilder,
     steel: MaterialId,
     concrete: MaterialId,
     c: [f64; 2],
     a: f64,
-    height: f64,
+    z: [f64; 2],
 ) {
-    b.add(abox([c[0], c[1], 0.1], [a + 0.35, a + 0.35, 0.2]), concrete);
-    let z0 = 0.3;
+    let [ground, height] = z;
+    b.add(
+        abox([c[0], c[1], ground + 0.1], [a + 0.35, a + 0.35, 0.2]),
+        concrete,
+    );
+    let z0 = ground + 0.3;
     let corners = [(-a, -a), (a, -a), (a, a), (-a, a)];
     for &(dx, dy) in &corners {
         let p0 = Point3::new(c[0] + dx, c[1] + dy, z0);
@@ -1142,6 +1192,11 @@ mod tests {
                     .all(|v| v.abs() <= r::CABINET_SHIFT_M)
             );
             assert!(p.rack_shift[2].abs() <= r::RACK_YAW_DEG.to_radians());
+            let grade = p.ground_grade[0].hypot(p.ground_grade[1]);
+            assert!(
+                (r::GROUND_GRADE[0] - 1e-12..=r::GROUND_GRADE[1] + 1e-12).contains(&grade),
+                "grade {grade}"
+            );
             assert_eq!(
                 p,
                 SubstationParams::seeded(seed),
@@ -1170,6 +1225,63 @@ mod tests {
         eprintln!("wire vs start between seeds: {pairs:.3?} m (median {median:.3})");
         assert!(pairs.iter().all(|d| *d > 1e-3));
         assert!(median >= 0.03, "median {median} m between two seeds");
+        Ok(())
+    }
+
+    /// On a graded seeded bay the ground is the plane through the working spot, and the
+    /// structures stand on it: the rack's pedestal and the cabinet's foundation rest on the
+    /// ground's lowest point under them, and the conductors hang from gantries raised by the
+    /// ground under each; the fixed bay is level.
+    #[test]
+    fn structures_stand_on_the_graded_ground() -> Result<(), SubstationError> {
+        let (_, fixed) = SubstationBuilder::new(3).build()?;
+        assert!(fixed.ground.is_level() && fixed.ground.height_m == 0.0);
+        let mut steepest: f64 = 0.0;
+        for seed in 0..6 {
+            let p = SubstationParams::seeded(seed);
+            let (scene, l) = SubstationBuilder::new(seed).params(p).build()?;
+            let g = l.ground;
+            assert_eq!(g.grade, p.ground_grade);
+            steepest = steepest.max(g.steepest_grade());
+            let spot = l.world_from_robot_spot.translation.vector;
+            assert!(g.height_at(spot.x, spot.y).abs() < 1e-12);
+            // A ray straight down 2.6 m from the spot (off the road) meets the graded ground.
+            let (x, y) = (spot.x + 2.4, spot.y - 1.0);
+            let ray = Ray {
+                origin: Point3::new(x, y, 10.0),
+                dir: -Vector3::z(),
+            };
+            let hit = scene.intersect(&ray, 0.0, f64::INFINITY);
+            let z = hit.map(|h| ray.at(h.t_m).z);
+            assert!(
+                z.is_some_and(|z| (z - g.height_at(x, y)).abs() < 1e-9),
+                "seed {seed}: {z:?} vs {}",
+                g.height_at(x, y)
+            );
+            let rack = l.world_from_rack.translation.vector;
+            let pedestal_bottom = rack.z - RACK_PEDESTAL_M;
+            assert!((pedestal_bottom - g.lowest_under(rack.x, rack.y, [0.32, 0.32])).abs() < 1e-12);
+            assert!(pedestal_bottom < g.height_at(rack.x, rack.y));
+            let face = l.calibration_target_center;
+            let above = face.z - g.height_at(face.x + 0.3, face.y);
+            // The cluster's footprint reaches 0.7 m behind the face and 3.3 m along it (the
+            // tray's posts).
+            let lowest = 1.1 - 4.0 * g.steepest_grade();
+            assert!(
+                (lowest..=1.1 + 1e-12).contains(&above),
+                "seed {seed}: face {above} m up"
+            );
+            for c in &l.conductors {
+                let (a, b) = (
+                    c.start.z - g.height_at(0.0, 0.0),
+                    c.end.z - g.height_at(p.span_m, 0.0),
+                );
+                assert!(
+                    (a - p.attach_height_m).abs() < 1e-12 && (b - p.attach_height_m).abs() < 1e-12
+                );
+            }
+        }
+        assert!(steepest > 0.01, "steepest grade {steepest}");
         Ok(())
     }
 
