@@ -48,6 +48,7 @@ use super::memory::{HandleSite, Rod};
 use super::steps::{
     capture_empty_rack, capture_handle, capture_rack, capture_wire, capture_wire_more, check_more,
     close_clamp, grasp_handle, grasp_rack, look_handle, look_rack, look_wire, recalibrate,
+    reposition,
 };
 use crate::perception::PerceptionError;
 use crate::perception::handle::{CutEnd, ViewWindow, fit_handle};
@@ -392,6 +393,9 @@ impl Task {
                         est.metrics.captures, est.confidence.score, est.confidence.limiting
                     ),
                 );
+                if let Some(next) = reposition::toward_reach(self, &hook)? {
+                    return Ok(next);
+                }
                 self.memory.wire_in_base = Some((est.hanging.point, axis.direction));
                 self.memory.hook_goal = Some(hook);
                 Ok(Next::Following)

@@ -72,6 +72,9 @@ pub(crate) struct Memory {
     pub rack_seen: Option<Isometry3<f64>>,
     /// The lift height of the look at the wire.
     pub look_lift_m: Option<f64>,
+    /// The base has moved towards a wire beyond the arm's reach
+    /// ([`reposition`](super::steps::reposition)); once per hang.
+    pub repositioned: bool,
     /// The recovery's actions and the step after it.
     pub recovery: Option<(Vec<Action>, &'static str)>,
     /// The `reason_code` of the final `done` event.
@@ -104,6 +107,7 @@ impl Memory {
             stored_rod_seen: None,
             rack_seen: None,
             look_lift_m: None,
+            repositioned: false,
             recovery: None,
             done_reason: "done",
             done_text: String::new(),

@@ -130,22 +130,25 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
     };
     Ok(legs
         .into_iter()
-        .map(|(goal_pose, leg_m)| {
-            let goal = PoseStamped {
-                header: task.out.header(task.robot.now, MAP),
-                pose: pose_msg(&goal_pose.isometry()),
-            };
-            let seconds = leg_m / DRIVE_SPEED_M_S + std::f64::consts::TAU / TURN_RATE_RAD_S;
-            Action {
-                outputs: vec![(BASE_GOAL.to_owned(), goal.into())],
-                command: true,
-                until: Until::Base(goal_pose),
-                timeout: RobotDuration::from_secs_f64(seconds * 1.5 + 10.0)
-                    .unwrap_or(RobotDuration::from_secs(120)),
-                label: "base to the working spot",
-            }
-        })
+        .map(|(goal_pose, leg_m)| base_action(task, goal_pose, leg_m, "base to the working spot"))
         .collect())
+}
+
+/// The base to `goal` in `map`, `leg_m` away: done when the odometry is there and still.
+pub(crate) fn base_action(task: &Task, goal: BasePose, leg_m: f64, label: &'static str) -> Action {
+    let message = PoseStamped {
+        header: task.out.header(task.robot.now, MAP),
+        pose: pose_msg(&goal.isometry()),
+    };
+    let seconds = leg_m / DRIVE_SPEED_M_S + std::f64::consts::TAU / TURN_RATE_RAD_S;
+    Action {
+        outputs: vec![(BASE_GOAL.to_owned(), message.into())],
+        command: true,
+        until: Until::Base(goal),
+        timeout: RobotDuration::from_secs_f64(seconds * 1.5 + 10.0)
+            .unwrap_or(RobotDuration::from_secs(120)),
+        label,
+    }
 }
 
 /// The pose `d` (m) behind `spot` on its heading, facing the same way.
@@ -193,7 +196,11 @@ fn drive_path(from: &BasePose, to: &BasePose) -> Vec<BasePose> {
 
 /// The least clearance of the chassis (spheres filling its box) to the site map's obstacles
 /// and stored rod along [`drive_path`], the obstacle's name and the base pose there.
-fn drive_clearance(site: &SiteMap, from: &BasePose, to: &BasePose) -> (f64, String, BasePose) {
+pub(crate) fn drive_clearance(
+    site: &SiteMap,
+    from: &BasePose,
+    to: &BasePose,
+) -> (f64, String, BasePose) {
     let [hx, hy, r] = CHASSIS_HALF_EXTENTS_M;
     let mut best = (f64::INFINITY, String::new(), *from);
     let spheres: Vec<Point3<f64>> = {

@@ -8,6 +8,7 @@ use crate::stages::task::Task;
 use crate::stages::task::action::Action;
 use crate::stages::task::flow::{StepDef, Stop, next_in_flow};
 use crate::stages::task::memory::Rod;
+use crate::stages::task::planning::Planner;
 use crate::tasks::poses;
 use crate::tasks::site::RACK_HOLDERS;
 
@@ -45,15 +46,7 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
     let last = via.last().copied().unwrap_or(q0);
     via.extend(p.line_waypoints(lift, &last, &out)?);
     let lift_out = p.plan(&world, lift, &q0, &via, "lift the rod out of the rack")?;
-    // Carry: the rod upright in front of the robot (0.61 m ahead, 0.25 m left, its origin
-    // 0.35 - 0.125 m above the arm base): it clears the platform and stays ~0.7 m from the
-    // wire.
-    let arm_base = p.arm_base_point(lift);
-    let carried_rod = Isometry3::from_parts(
-        nalgebra::Translation3::new(0.61, 0.25, arm_base.z + 0.35 - 0.125),
-        nalgebra::UnitQuaternion::identity(),
-    );
-    let carry_pose = poses::grasp_tool0(&carried_rod);
+    let carry_pose = carry_pose(&p, lift);
     let q_out = via.last().copied().unwrap_or(q0);
     let q_carry = p.ik_goal(lift, &carry_pose, &q_out)?;
     let world = p.world(lift)?;
@@ -62,4 +55,16 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
         p.arm_action(&lift_out, "lift the rod out"),
         p.arm_action(&carry, "carry the rod"),
     ])
+}
+
+/// `base_from_tool0` carrying the rod at lift `lift_m`: the rod upright in front of the
+/// robot (0.61 m ahead, 0.25 m left, its origin 0.35 - 0.125 m above the arm base), where it
+/// clears the platform and stays ~0.7 m from the wire.
+pub(crate) fn carry_pose(p: &Planner<'_>, lift_m: f64) -> Isometry3<f64> {
+    let arm_base = p.arm_base_point(lift_m);
+    let carried_rod = Isometry3::from_parts(
+        nalgebra::Translation3::new(0.61, 0.25, arm_base.z + 0.35 - 0.125),
+        nalgebra::UnitQuaternion::identity(),
+    );
+    poses::grasp_tool0(&carried_rod)
 }

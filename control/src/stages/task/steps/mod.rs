@@ -33,6 +33,9 @@
 //! | [`rack`] | remove | rod into the rack, release | - (the rod is on the rack) |
 //! | [`retreat`] | all | stow (backing off first when blocked), lift down | - |
 //! | [`recover`] | after a miss | the verdict's recovery actions | - (back to the named step) |
+//!
+//! [`reposition`] is a recovery the wire's verdict plans when the hook goal is beyond the
+//! arm's reach: the base moves a few cm towards the wire and the look is repeated.
 
 pub(crate) mod approach;
 pub(crate) mod begin;
@@ -59,6 +62,7 @@ pub(crate) mod raise_for_look;
 pub(crate) mod recalibrate;
 pub(crate) mod recover;
 pub(crate) mod release;
+pub(crate) mod reposition;
 pub(crate) mod retreat;
 pub(crate) mod stow;
 pub(crate) mod to_pre_approach;

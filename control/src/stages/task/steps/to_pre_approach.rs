@@ -11,6 +11,7 @@ use nalgebra::Isometry3;
 use crate::stages::task::Task;
 use crate::stages::task::action::Action;
 use crate::stages::task::flow::{StepDef, Stop, next_in_flow};
+use crate::stages::task::planning::Planner;
 use crate::tasks::poses;
 use crate::tasks::site::{CONDUCTOR_SWAY_MARGIN_M, TARGET_WIRE};
 
@@ -35,6 +36,37 @@ pub(crate) const HANG_TOOL_HEIGHTS_M: [f64; 2] = [0.3, 0.15];
 /// in the arm's branch). Preferred, not required: a lift with the margin is taken first.
 pub(crate) const APPROACH_REACH_MARGIN_M: f64 = 0.03;
 
+/// The lifts (with the arm's configuration there) at which the arm reaches `tool_hang`: the
+/// comfortable one, then those of [`HANG_TOOL_HEIGHTS_M`], each lift once (the lift's travel
+/// clamps some heights to the same one); and the first refusal among those it does not
+/// reach.
+pub(crate) fn hang_lifts(
+    p: &Planner<'_>,
+    tool_hang: &Isometry3<f64>,
+    q: &[f64; 6],
+) -> (Vec<(f64, [f64; 6])>, Option<Stop>) {
+    let mut lifts = vec![p.comfortable_lift(tool_hang, q, "hang pose")];
+    lifts.extend(
+        HANG_TOOL_HEIGHTS_M
+            .iter()
+            .map(|&h| p.lift_for_height(tool_hang, h, q, "hang pose")),
+    );
+    let mut first_refusal = None;
+    let mut candidates: Vec<(f64, [f64; 6])> = Vec::new();
+    for lift_and_q in lifts {
+        match lift_and_q {
+            Ok((l, q_hang)) if !candidates.iter().any(|(c, _)| (c - l).abs() < 1e-3) => {
+                candidates.push((l, q_hang));
+            }
+            Ok(_) => {}
+            Err(stop) => {
+                first_refusal.get_or_insert(stop);
+            }
+        }
+    }
+    (candidates, first_refusal)
+}
+
 fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
     let p = task.planner();
     let q = p.q()?;
@@ -51,26 +83,7 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
     let beyond =
         poses::tool0_for_hook(&(hook * Isometry3::translation(APPROACH_REACH_MARGIN_M, 0.0, 0.0)));
     let world = p.world(lift)?;
-    let mut lifts = vec![p.comfortable_lift(&tool_hang, &q, "hang pose")];
-    lifts.extend(
-        HANG_TOOL_HEIGHTS_M
-            .iter()
-            .map(|&h| p.lift_for_height(&tool_hang, h, &q, "hang pose")),
-    );
-    // Each lift once (the lift's travel clamps some heights to the same one).
-    let mut first_refusal = None;
-    let mut candidates: Vec<(f64, [f64; 6])> = Vec::new();
-    for lift_and_q in lifts {
-        match lift_and_q {
-            Ok((l, q_hang)) if !candidates.iter().any(|(c, _)| (c - l).abs() < 1e-3) => {
-                candidates.push((l, q_hang));
-            }
-            Ok(_) => {}
-            Err(stop) => {
-                first_refusal.get_or_insert(stop);
-            }
-        }
-    }
+    let (candidates, first_refusal) = hang_lifts(&p, &tool_hang, &q);
     let pre_hook = hook * Isometry3::translation(-approach_m, 0.0, 0.0);
     let tool_pre = poses::tool0_for_hook(&pre_hook);
     // Each lift planned once: the first with the reach to spare is taken, else the first

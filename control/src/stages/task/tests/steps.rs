@@ -439,6 +439,46 @@ fn a_swinging_wire_gets_three_more_captures_and_the_hook_goes_to_its_centre() {
     assert_done(&rig);
 }
 
+/// A wire farther from the working spot than the arm reaches (the spot a few cm off, the
+/// base tilted on a graded yard): the base lowers the rod, moves towards the wire, looks
+/// again and hangs the rod.
+#[test]
+fn a_wire_beyond_the_arms_reach_brings_the_base_nearer_then_the_hang_goes_on() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, b| {
+        c.self_maintenance = false;
+        let spot = c.site.work_spot;
+        let ahead = Vector3::new(spot.yaw_rad.cos(), spot.yaw_rad.sin(), 0.0);
+        b.wire = b.wire.map(|(p, d)| (p + ahead * 0.18, d));
+    });
+    rig.run(LIMIT_S);
+    assert_done(&rig);
+    let moved = with_reason(&rig, "repositioning");
+    assert_eq!(moved.len(), 1, "{:#?}", rig.events());
+    assert!(moved[0].text.contains("moving the base"), "{moved:?}");
+    // The rod to its carry pose, the lift down, the base ahead; then the look again.
+    assert_eq!(count(&rig, "recover", ARM_JOINT_TRAJECTORY), 1);
+    assert_eq!(count(&rig, "recover", LIFT_COMMAND), 1);
+    assert_eq!(count(&rig, "recover", BASE_GOAL), 1);
+    let steps = rig.steps();
+    let k = steps.iter().position(|s| s == "recover");
+    assert_eq!(
+        k.map(|k| steps[k + 1..].iter().take(4).cloned().collect::<Vec<_>>()),
+        Some(
+            ["raise_for_look", "panoramic", "look_wire", "capture_wire"]
+                .map(String::from)
+                .to_vec()
+        ),
+        "{steps:?}"
+    );
+    let site = crate::tasks::site::SiteMap::default_bay();
+    let ahead_m = (rig.base.x_m - site.work_spot.x_m) * site.work_spot.yaw_rad.cos()
+        + (rig.base.y_m - site.work_spot.y_m) * site.work_spot.yaw_rad.sin();
+    assert!(
+        (0.05..=0.15).contains(&ahead_m),
+        "base moved {ahead_m} m ahead"
+    );
+}
+
 #[test]
 fn to_pre_approach_moves_the_arm_then_lowers_to_the_hook_height() {
     let mut rig = Rig::with(TaskKind::Hang, |c, _| c.self_maintenance = false);
