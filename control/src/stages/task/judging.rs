@@ -729,6 +729,11 @@ impl Task {
                 (centre - centre_prior).norm() * 1e3
             ),
         );
+        if site == HandleSite::Wire
+            && let Some(next) = reposition::toward_handle(self, &grasp)?
+        {
+            return Ok(next);
+        }
         Ok(Next::Following)
     }
 

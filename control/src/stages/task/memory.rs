@@ -73,7 +73,7 @@ pub(crate) struct Memory {
     /// The lift height of the look at the wire.
     pub look_lift_m: Option<f64>,
     /// The base has moved towards a wire beyond the arm's reach
-    /// ([`reposition`](super::steps::reposition)); once per hang.
+    /// ([`reposition`](super::steps::reposition)); once per task.
     pub repositioned: bool,
     /// The recovery's actions and the step after it.
     pub recovery: Option<(Vec<Action>, &'static str)>,

@@ -1,28 +1,31 @@
-//! Repositioning (hang): not a step of its own but the recovery ([`super::recover`]) the
-//! wire's verdict enters when the hook goal is beyond the arm's reach from where the base
-//! stands: the rod back to its carry pose, the lift down, the base straight ahead by the
-//! shortfall plus [`REACH_MARGIN_M`], then the look at the wire again
-//! ([`super::raise_for_look`] onwards).
+//! Repositioning: not a step of its own but the recovery ([`super::recover`]) a verdict
+//! enters when its target is beyond the arm's reach from where the base stands. The hang's
+//! wire verdict, for the hook goal: the rod back to its carry pose, the lift down, the base
+//! straight ahead by the shortfall plus [`REACH_MARGIN_M`], then the look at the wire again
+//! ([`super::raise_for_look`] onwards). The remove's handle verdict, for the grasp of the hung
+//! rod: the lift down, the base ahead, the look at the handle again.
 //!
 //! Why the wire can be out of reach although the survey put the working spot in reach: the
 //! spot is known to a few cm, and the base rests on a graded yard that its odometry does not
 //! measure. Tilted by a yard's 0.5-2 % grade (up to 1.1 deg), the base's frame carries a wire
 //! 3.7 m up by up to 7 cm horizontally. The robot only moves forward (a differential base
-//! backs up by turning round beside the rack), by at most [`MAX_REPOSITION_M`], once per hang,
+//! backs up by turning round beside the rack), by at most [`MAX_REPOSITION_M`], once per task,
 //! and only along a drive the site map clears ([`super::drive::drive_clearance`]); otherwise
-//! `to_pre_approach` refuses as before (`unreachable`).
+//! `to_pre_approach` or `grasp_handle` refuses as before (`unreachable`).
 
 use msgs::rodlog_msgs::TaskEvent;
 use nalgebra::Isometry3;
 
-use super::drive::{base_action, drive_clearance};
+use super::drive::{DRIVE_CLEARANCE_M, base_action, drive_clearance};
 use super::lift_out::carry_pose;
 use super::to_pre_approach::hang_lifts;
-use super::{capture_wire, raise_for_look};
+use super::{capture_handle, capture_wire, look_handle, raise_for_look};
 use crate::stages::task::Task;
 use crate::stages::task::action::Action;
 use crate::stages::task::flow::{Next, Stop};
 use crate::stages::task::inputs::base_pose_of;
+use crate::stages::task::memory::Rod;
+use crate::stages::task::planning::Planner;
 use crate::tasks::poses;
 use crate::tasks::site::BasePose;
 
@@ -43,24 +46,114 @@ const SEARCH_STEP_M: f64 = 0.01;
 /// # Errors
 /// A stop from planning the rod's way back to its carry pose or the lift's way down.
 pub(crate) fn toward_reach(task: &mut Task, hook: &Isometry3<f64>) -> Result<Option<Next>, Stop> {
+    let reaches = |p: &Planner<'_>, q: &[f64; 6], hook: &Isometry3<f64>| {
+        !hang_lifts(p, &poses::tool0_for_hook(hook), q).0.is_empty()
+    };
+    let Some(moving) = forward_move(task, hook, reaches, capture_wire::NAME)? else {
+        return Ok(None);
+    };
+    let p = task.planner();
+    let (q, lift) = (p.q()?, p.lift()?);
+    let q_carry = p.ik_goal(lift, &carry_pose(&p, lift), &q)?;
+    let world = p.world(lift)?;
+    let to_carry = p.plan_move(&world, lift, &q, &q_carry, "rod back to its carry pose")?;
+    p.check_lift_move(&q_carry, lift, 0.0)?;
+    let actions = vec![
+        p.arm_action(&to_carry, "rod back to its carry pose"),
+        Action::lift(lift, 0.0, "lift down to drive"),
+        base_action(task, moving.goal, moving.move_m, "base towards the wire"),
+    ];
+    announce(
+        task,
+        capture_wire::NAME,
+        "hook goal",
+        hook,
+        &moving,
+        "lowering the rod",
+    );
+    Ok(Some(Next::Recover {
+        actions,
+        then: raise_for_look::NAME,
+    }))
+}
+
+/// The same for the remove's `grasp` of the hung rod's handle (`base_link`): the lift down,
+/// the base ahead, then the look at the handle again ([`super::look_handle`] onwards).
+///
+/// # Errors
+/// A stop from planning the lift's way down.
+pub(crate) fn toward_handle(task: &mut Task, grasp: &Isometry3<f64>) -> Result<Option<Next>, Stop> {
+    let reaches = |p: &Planner<'_>, q: &[f64; 6], grasp: &Isometry3<f64>| {
+        p.comfortable_lift(grasp, q, "grasp pose").is_ok()
+    };
+    let Some(moving) = forward_move(task, grasp, reaches, capture_handle::NAME)? else {
+        return Ok(None);
+    };
+    // The rod on the wire as last measured, in the frame of the base moved ahead: where the
+    // next look points.
+    if let Rod::OnWire(base_from_rod) = task.memory.rod {
+        task.memory.rod =
+            Rod::OnWire(Isometry3::translation(-moving.move_m, 0.0, 0.0) * base_from_rod);
+    }
+    let p = task.planner();
+    let (q, lift) = (p.q()?, p.lift()?);
+    p.check_lift_move(&q, lift, 0.0)?;
+    let actions = vec![
+        Action::lift(lift, 0.0, "lift down to drive"),
+        base_action(
+            task,
+            moving.goal,
+            moving.move_m,
+            "base towards the hung rod",
+        ),
+    ];
+    announce(
+        task,
+        capture_handle::NAME,
+        "grasp of the handle",
+        grasp,
+        &moving,
+        "lowering the lift",
+    );
+    Ok(Some(Next::Recover {
+        actions,
+        then: look_handle::NAME,
+    }))
+}
+
+/// A forward move of the base towards a target beyond reach.
+struct ForwardMove {
+    /// The least move that brings the target into reach (m, to [`SEARCH_STEP_M`]).
+    least_m: f64,
+    /// The move made: `least_m` plus [`REACH_MARGIN_M`] (m).
+    move_m: f64,
+    /// The base's goal in `map`.
+    goal: BasePose,
+}
+
+/// The least forward move (m, to [`SEARCH_STEP_M`]) that brings `target` (`base_link`) into
+/// reach by `reaches`, and the base's goal that much plus [`REACH_MARGIN_M`] ahead (its
+/// distance, the pose); `None` when the target is in reach, the base was repositioned
+/// already, no move up to [`MAX_REPOSITION_M`] reaches it, or the drive is not clear (said
+/// in an event of `step`).
+fn forward_move(
+    task: &mut Task,
+    target: &Isometry3<f64>,
+    reaches: impl Fn(&Planner<'_>, &[f64; 6], &Isometry3<f64>) -> bool,
+    step: &str,
+) -> Result<Option<ForwardMove>, Stop> {
     if task.memory.repositioned {
         return Ok(None);
     }
     let p = task.planner();
     let q = p.q()?;
-    if !hang_lifts(&p, &poses::tool0_for_hook(hook), &q)
-        .0
-        .is_empty()
-    {
+    if reaches(&p, &q, target) {
         return Ok(None);
     }
     let steps = (MAX_REPOSITION_M / SEARCH_STEP_M).round() as usize;
     let Some(least_m) = (1..=steps).map(|k| k as f64 * SEARCH_STEP_M).find(|&d| {
-        // The base d ahead sees the hook d nearer.
-        let moved = Isometry3::translation(-d, 0.0, 0.0) * hook;
-        !hang_lifts(&p, &poses::tool0_for_hook(&moved), &q)
-            .0
-            .is_empty()
+        // The base d ahead sees the target d nearer.
+        reaches(&p, &q, &(Isometry3::translation(-d, 0.0, 0.0) * target))
     }) else {
         return Ok(None);
     };
@@ -72,39 +165,42 @@ pub(crate) fn toward_reach(task: &mut Task, hook: &Isometry3<f64>) -> Result<Opt
         yaw_rad: here.yaw_rad,
     };
     let (clearance_m, obstacle, _) = drive_clearance(&task.config.site, &here, &goal);
-    if clearance_m < super::drive::DRIVE_CLEARANCE_M {
+    if clearance_m < DRIVE_CLEARANCE_M {
         let text = format!(
-            "the hook goal is {:.0} mm beyond the arm's reach, but moving the base {:.0} mm ahead would bring the chassis within {:.0} mm of {obstacle}: not repositioning",
+            "the target is {:.0} mm beyond the arm's reach, but moving the base {:.0} mm ahead would bring the chassis within {:.0} mm of {obstacle}: not repositioning",
             least_m * 1e3,
             move_m * 1e3,
             clearance_m * 1e3
         );
-        task.event(TaskEvent::INFO, capture_wire::NAME, "", text);
+        task.event(TaskEvent::INFO, step, "", text);
         return Ok(None);
     }
-    let lift = p.lift()?;
-    let q_carry = p.ik_goal(lift, &carry_pose(&p, lift), &q)?;
-    let world = p.world(lift)?;
-    let to_carry = p.plan_move(&world, lift, &q, &q_carry, "rod back to its carry pose")?;
-    p.check_lift_move(&q_carry, lift, 0.0)?;
-    let actions = vec![
-        p.arm_action(&to_carry, "rod back to its carry pose"),
-        Action::lift(lift, 0.0, "lift down to drive"),
-        base_action(task, goal, move_m, "base towards the wire"),
-    ];
     task.memory.repositioned = true;
-    let text = format!(
-        "the hook goal ({:.3}, {:.3}, {:.3}) m in base_link is beyond the arm's reach from here by {:.0}-{:.0} mm: lowering the rod and moving the base {:.0} mm ahead, then looking at the wire again",
-        hook.translation.x,
-        hook.translation.y,
-        hook.translation.z,
-        (least_m - SEARCH_STEP_M) * 1e3,
-        least_m * 1e3,
-        move_m * 1e3
-    );
-    task.event(TaskEvent::INFO, capture_wire::NAME, "repositioning", text);
-    Ok(Some(Next::Recover {
-        actions,
-        then: raise_for_look::NAME,
+    Ok(Some(ForwardMove {
+        least_m,
+        move_m,
+        goal,
     }))
+}
+
+/// The `repositioning` event of `step`.
+fn announce(
+    task: &mut Task,
+    step: &str,
+    what: &str,
+    target: &Isometry3<f64>,
+    moving: &ForwardMove,
+    first: &str,
+) {
+    let t = target.translation.vector;
+    let text = format!(
+        "the {what} ({:.3}, {:.3}, {:.3}) m in base_link is beyond the arm's reach from here by {:.0}-{:.0} mm: {first} and moving the base {:.0} mm ahead, then looking again",
+        t.x,
+        t.y,
+        t.z,
+        (moving.least_m - SEARCH_STEP_M) * 1e3,
+        moving.least_m * 1e3,
+        moving.move_m * 1e3
+    );
+    task.event(TaskEvent::INFO, step, "repositioning", text);
 }

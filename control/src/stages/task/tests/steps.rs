@@ -580,6 +580,38 @@ fn the_remove_runs_its_steps_in_order_and_racks_the_rod() {
     );
 }
 
+/// The remove's hung rod farther out than the arm reaches from the working spot (a survey
+/// that put the spot too far from the wire): the base lowers the lift, moves towards it,
+/// looks at the handle again and removes the rod.
+#[test]
+fn a_hung_rod_beyond_the_arms_reach_brings_the_base_nearer_then_the_remove_goes_on() {
+    let mut rig = Rig::with(TaskKind::Remove, |c, b| {
+        c.self_maintenance = false;
+        let spot = c.site.work_spot;
+        // The wire (and the survey's prior of it) farther from the spot than the arm reaches.
+        let ahead = Vector3::new(spot.yaw_rad.cos(), spot.yaw_rad.sin(), 0.0) * 0.18;
+        c.site.wire.point += ahead;
+        b.wire = b.wire.map(|(p, d)| (p + ahead, d));
+        b.hung_rod = b
+            .hung_rod
+            .map(|rod| nalgebra::Translation3::from(ahead) * rod);
+    });
+    rig.run(LIMIT_S);
+    assert_done(&rig);
+    let moved = with_reason(&rig, "repositioning");
+    assert_eq!(moved.len(), 1, "{:#?}", rig.events());
+    assert!(moved[0].text.contains("grasp of the handle"), "{moved:?}");
+    assert_eq!(count(&rig, "recover", LIFT_COMMAND), 1);
+    assert_eq!(count(&rig, "recover", BASE_GOAL), 1);
+    let steps = rig.steps();
+    let k = steps.iter().position(|s| s == "recover");
+    assert_eq!(
+        k.and_then(|k| steps.get(k + 1)).map(String::as_str),
+        Some("look_handle"),
+        "{steps:?}"
+    );
+}
+
 #[test]
 fn look_handle_raises_the_lift_and_points_the_camera_at_the_hung_handle() {
     let rig = quick(TaskKind::Remove);
