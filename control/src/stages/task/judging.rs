@@ -540,6 +540,7 @@ impl Task {
         let mut fits: Vec<(Point3<f64>, Vector3<f64>, bool)> = Vec::new();
         let mut reasons = Vec::new();
         let mut cloud = Vec::new();
+        let mut cut_both = false;
         for c in &self.memory.captures {
             let camera_from_base = c.base_from_camera.inverse();
             let a = axis_prior.normalize() * (half + HANDLE_ROI_END_M);
@@ -569,7 +570,10 @@ impl Task {
                         &(camera_from_base * robot_point),
                         &window,
                     )
-                    .map_err(|e| e.to_string())
+                    .map_err(|e| {
+                        cut_both |= matches!(e, PerceptionError::HandleCut { .. });
+                        e.to_string()
+                    })
                     .map(|h| (h, points))
                 })
                 .and_then(|(h, points)| match &c.colour {
@@ -605,6 +609,9 @@ impl Task {
             }
         }
         let stamp = self.publish_capture_cloud(&cloud);
+        // The view cut the handle at both ends: the camera stood nearer than planned (the
+        // prior a few cm off); the next look stands farther back.
+        self.memory.look_farther |= cut_both;
         let wanted = self.config.handle_captures.max(1);
         let max_disagreement = self.config.handle_max_disagreement_m;
         let disagreement = fits

@@ -72,6 +72,9 @@ pub(crate) struct Memory {
     pub rack_seen: Option<Isometry3<f64>>,
     /// The lift height of the look at the wire.
     pub look_lift_m: Option<f64>,
+    /// A view cut the handle at both ends: the looks at a handle stand
+    /// [`HANDLE_LOOK_FARTHER`](super::planning::HANDLE_LOOK_FARTHER) times farther back.
+    pub look_farther: bool,
     /// The base has moved towards a wire beyond the arm's reach
     /// ([`reposition`](super::steps::reposition)); once per task.
     pub repositioned: bool,
@@ -107,6 +110,7 @@ impl Memory {
             stored_rod_seen: None,
             rack_seen: None,
             look_lift_m: None,
+            look_farther: false,
             repositioned: false,
             recovery: None,
             done_reason: "done",

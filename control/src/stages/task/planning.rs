@@ -54,6 +54,10 @@ pub const DETOUR_LINE_STEP_M: f64 = 0.05;
 /// Preferred height of `tool0` above the arm base when the lift can choose (m): the arm
 /// half bent, far from the stretched and folded singularities.
 pub const COMFORT_HEIGHT_M: f64 = 0.5;
+/// A look at a handle after a view cut it at both ends stands this many times farther back
+/// ([`Planner::handle_standoff_m`]): the view then spans a quarter more, the 4-8 cm by which
+/// a surveyed prior and an untracked tilt of the base bring the camera nearer than planned.
+pub const HANDLE_LOOK_FARTHER: f64 = 1.25;
 /// Rise of a detour's via points above a blocked move's start and goal (m).
 pub const DETOUR_RISE_M: f64 = 0.25;
 /// How far out from the arm's axis the outward detours of
@@ -611,11 +615,22 @@ impl Planner<'_> {
             target,
             line_dir,
             &robot_point,
-            self.task.config.standoff_m,
+            self.handle_standoff_m(),
             up_hint,
         )
         .map_err(|e| Stop::failed("bad_geometry", e.to_string()))?;
         self.look_goal_for(&camera, seed)
+    }
+
+    /// The distance of a look at a handle (m): [`TaskConfig::standoff_m`](super::TaskConfig::standoff_m),
+    /// [`HANDLE_LOOK_FARTHER`] times that once a view cut a handle at both ends.
+    pub fn handle_standoff_m(&self) -> f64 {
+        let standoff_m = self.task.config.standoff_m;
+        if self.task.memory.look_farther {
+            standoff_m * HANDLE_LOOK_FARTHER
+        } else {
+            standoff_m
+        }
     }
 
     /// The stored rod: as seen by the wrist camera when it was, otherwise the site map's.
@@ -915,7 +930,7 @@ impl Planner<'_> {
         for &elevation_deg in elevations_deg {
             let e = elevation_deg.to_radians();
             let eye = centre
-                + (towards_arm * e.cos() + Vector3::z() * e.sin()) * self.task.config.standoff_m;
+                + (towards_arm * e.cos() + Vector3::z() * e.sin()) * self.handle_standoff_m();
             let Some(camera) = robot::se3::world_from_camera_looking_at(&eye, centre, up) else {
                 continue;
             };

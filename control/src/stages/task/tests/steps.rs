@@ -13,6 +13,9 @@ use super::{LIMIT_S, assert_done, assert_ended, count, with_reason};
 use crate::stages::task::TaskKind;
 use crate::tasks::site::BasePose;
 
+/// A look distance at which the rig's camera sees less than the stored rod's handle.
+const STANDOFF_M: f64 = 0.30;
+
 /// A hang without the self-maintenance (the calibration as it is), run to its end.
 fn quick(kind: TaskKind) -> Rig {
     let mut rig = Rig::with(kind, |c, _| c.self_maintenance = false);
@@ -340,6 +343,26 @@ fn capture_rack_fits_the_stored_rods_handle_and_publishes_the_grasp() {
     };
     assert!(handle.text.contains("from 2 captures"), "{handle:?}");
     assert_eq!(rig.steps().last().map(String::as_str), Some("grasp_rack"));
+}
+
+/// A look at the stored rod whose view cuts its handle at both ends (the camera nearer than
+/// planned): the next look stands farther back and sees the whole handle.
+#[test]
+fn a_view_that_cuts_the_handle_at_both_ends_is_followed_by_a_look_from_farther_back() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, _| {
+        c.self_maintenance = false;
+        c.standoff_m = STANDOFF_M;
+    });
+    rig.run(LIMIT_S);
+    let retries = with_reason(&rig, "retry");
+    assert!(
+        retries
+            .first()
+            .is_some_and(|e| e.state == "look_rack" && e.text.contains("at both ends")),
+        "{:#?}",
+        rig.events()
+    );
+    assert_done(&rig);
 }
 
 #[test]
