@@ -609,9 +609,9 @@ impl Task {
             }
         }
         let stamp = self.publish_capture_cloud(&cloud);
-        // The view cut the handle at both ends: the camera stood nearer than planned (the
-        // prior a few cm off); the next look stands farther back.
-        self.memory.look_farther |= cut_both;
+        // The view cut the stored rod's handle at both ends: the camera stood nearer than
+        // planned (the surveyed prior a few cm off); the next look stands farther back.
+        self.memory.look_farther |= cut_both && site == HandleSite::Rack;
         let wanted = self.config.handle_captures.max(1);
         let max_disagreement = self.config.handle_max_disagreement_m;
         let disagreement = fits

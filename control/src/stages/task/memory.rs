@@ -72,7 +72,7 @@ pub(crate) struct Memory {
     pub rack_seen: Option<Isometry3<f64>>,
     /// The lift height of the look at the wire.
     pub look_lift_m: Option<f64>,
-    /// A view cut the handle at both ends: the looks at a handle stand
+    /// A view cut the stored rod's handle at both ends: the looks at it stand
     /// [`HANDLE_LOOK_FARTHER`](super::planning::HANDLE_LOOK_FARTHER) times farther back.
     pub look_farther: bool,
     /// The base has moved towards a wire beyond the arm's reach

@@ -54,9 +54,11 @@ pub const DETOUR_LINE_STEP_M: f64 = 0.05;
 /// Preferred height of `tool0` above the arm base when the lift can choose (m): the arm
 /// half bent, far from the stretched and folded singularities.
 pub const COMFORT_HEIGHT_M: f64 = 0.5;
-/// A look at a handle after a view cut it at both ends stands this many times farther back
-/// ([`Planner::handle_standoff_m`]): the view then spans a quarter more, the 4-8 cm by which
-/// a surveyed prior and an untracked tilt of the base bring the camera nearer than planned.
+/// A look at the stored rod after a view cut its handle at both ends stands this many times
+/// farther back ([`Planner::handle_standoff_m`]): the image then spans a quarter more, the
+/// 4-8 cm by which the surveyed rack and an untracked tilt of the base bring the camera nearer
+/// than planned. (The hung rod's look stays where it is: there a farther look measured worse,
+/// one remove refused in 100 that the same look again had hung.)
 pub const HANDLE_LOOK_FARTHER: f64 = 1.25;
 /// Rise of a detour's via points above a blocked move's start and goal (m).
 pub const DETOUR_RISE_M: f64 = 0.25;
@@ -615,15 +617,15 @@ impl Planner<'_> {
             target,
             line_dir,
             &robot_point,
-            self.handle_standoff_m(),
+            self.task.config.standoff_m,
             up_hint,
         )
         .map_err(|e| Stop::failed("bad_geometry", e.to_string()))?;
         self.look_goal_for(&camera, seed)
     }
 
-    /// The distance of a look at a handle (m): [`TaskConfig::standoff_m`](super::TaskConfig::standoff_m),
-    /// [`HANDLE_LOOK_FARTHER`] times that once a view cut a handle at both ends.
+    /// The distance of a look at the stored rod (m): [`TaskConfig::standoff_m`](super::TaskConfig::standoff_m),
+    /// [`HANDLE_LOOK_FARTHER`] times that once a view cut its handle at both ends.
     pub fn handle_standoff_m(&self) -> f64 {
         let standoff_m = self.task.config.standoff_m;
         if self.task.memory.look_farther {
