@@ -50,6 +50,14 @@ fn count(rig: &Rig, step: &str, topic: &str) -> usize {
     rig.outputs_in_step(step, topic).len()
 }
 
+/// The steps announced after the first `step`, at most `n` of them.
+fn steps_after(rig: &Rig, step: &str, n: usize) -> Vec<String> {
+    let steps = rig.steps();
+    let k = steps.iter().position(|s| s == step);
+    k.map(|k| steps[k + 1..].iter().take(n).cloned().collect())
+        .unwrap_or_default()
+}
+
 /// The events with reason `reason`.
 fn with_reason(rig: &Rig, reason: &str) -> Vec<Event> {
     rig.events()

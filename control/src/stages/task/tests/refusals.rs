@@ -7,7 +7,7 @@ use msgs::topics::{ARM_JOINT_TRAJECTORY, BASE_GOAL, CAMERA_TRIGGER, CLAMP_COMMAN
 use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
 
 use super::rig::Rig;
-use super::{LIMIT_S, assert_done, assert_ended, with_reason};
+use super::{LIMIT_S, assert_done, assert_ended, steps_after, with_reason};
 use crate::motion::collision::OrientedBox;
 use crate::stages::task::TaskKind;
 
@@ -110,12 +110,11 @@ fn a_clamped_rod_pulled_from_the_gripper_is_released_not_backed_off_with() {
     );
     // No back-off and second look: one close, then the release.
     assert!(with_reason(&rig, "retry").is_empty());
-    let steps = rig.steps();
-    let close = steps.iter().position(|s| s == "close_clamp");
     assert_eq!(
-        close.and_then(|k| steps.get(k + 1)).map(String::as_str),
-        Some("release"),
-        "{steps:?}"
+        steps_after(&rig, "close_clamp", 1),
+        ["release"],
+        "{:?}",
+        rig.steps()
     );
 }
 

@@ -9,7 +9,7 @@ use msgs::topics::{
 use nalgebra::{Point3, Vector3};
 
 use super::rig::Rig;
-use super::{LIMIT_S, assert_done, assert_ended, count, with_reason};
+use super::{LIMIT_S, assert_done, assert_ended, count, steps_after, with_reason};
 use crate::stages::task::TaskKind;
 use crate::tasks::site::BasePose;
 
@@ -482,16 +482,11 @@ fn a_wire_beyond_the_arms_reach_brings_the_base_nearer_then_the_hang_goes_on() {
     assert_eq!(count(&rig, "recover", ARM_JOINT_TRAJECTORY), 1);
     assert_eq!(count(&rig, "recover", LIFT_COMMAND), 1);
     assert_eq!(count(&rig, "recover", BASE_GOAL), 1);
-    let steps = rig.steps();
-    let k = steps.iter().position(|s| s == "recover");
     assert_eq!(
-        k.map(|k| steps[k + 1..].iter().take(4).cloned().collect::<Vec<_>>()),
-        Some(
-            ["raise_for_look", "panoramic", "look_wire", "capture_wire"]
-                .map(String::from)
-                .to_vec()
-        ),
-        "{steps:?}"
+        steps_after(&rig, "recover", 4),
+        ["raise_for_look", "panoramic", "look_wire", "capture_wire"],
+        "{:?}",
+        rig.steps()
     );
     let site = crate::tasks::site::SiteMap::default_bay();
     let ahead_m = (rig.base.x_m - site.work_spot.x_m) * site.work_spot.yaw_rad.cos()
@@ -626,12 +621,11 @@ fn a_hung_rod_beyond_the_arms_reach_brings_the_base_nearer_then_the_remove_goes_
     assert!(moved[0].text.contains("grasp of the handle"), "{moved:?}");
     assert_eq!(count(&rig, "recover", LIFT_COMMAND), 1);
     assert_eq!(count(&rig, "recover", BASE_GOAL), 1);
-    let steps = rig.steps();
-    let k = steps.iter().position(|s| s == "recover");
     assert_eq!(
-        k.and_then(|k| steps.get(k + 1)).map(String::as_str),
-        Some("look_handle"),
-        "{steps:?}"
+        steps_after(&rig, "recover", 1),
+        ["look_handle"],
+        "{:?}",
+        rig.steps()
     );
 }
 
@@ -765,12 +759,11 @@ fn recover_backs_off_a_missed_hook_and_looks_again() {
     assert_eq!(clamp_actions(&rig, "recover"), [ClampCommand::OPEN]);
     assert_eq!(count(&rig, "recover", ARM_JOINT_TRAJECTORY), 1);
     assert_eq!(count(&rig, "recover", LIFT_COMMAND), 1);
-    let steps = rig.steps();
-    let k = steps.iter().position(|s| s == "recover");
     assert_eq!(
-        k.and_then(|k| steps.get(k + 1)).map(String::as_str),
-        Some("look_wire"),
-        "{steps:?}"
+        steps_after(&rig, "recover", 1),
+        ["look_wire"],
+        "{:?}",
+        rig.steps()
     );
 }
 
