@@ -35,12 +35,20 @@ pub enum PoseError {
     },
 }
 
+/// Lines steeper than this count as vertical in [`horizontal_normal`], deg: between the
+/// wire's slope (a sagging span at its ends, well under 30 deg) and a hanging handle's
+/// (within a few degrees of vertical).
+pub const STEEP_LINE_DEG: f64 = 45.0;
+
 /// The horizontal unit direction perpendicular to `line_dir` pointing from `from` towards
-/// `to` (zero vertical component).
+/// `to` (zero vertical component). A line steeper than [`STEEP_LINE_DEG`] (a handle) counts
+/// as vertical: every horizontal direction is then perpendicular enough, and the one from
+/// `from` to `to` is taken. The exact perpendicular of a measured, almost vertical axis
+/// would turn with the axis' last tenth of a degree of tilt (a look at the hung rod's
+/// handle once swung 60 deg round it for a 0.06 deg change).
 ///
 /// # Errors
-/// [`PoseError::Degenerate`] for a vertical line direction seen from straight above, or
-/// points on the same vertical line through the axis.
+/// [`PoseError::Degenerate`] for points on the same vertical line through the axis.
 pub fn horizontal_normal(
     line_dir: &Vector3<f64>,
     from: &Point3<f64>,
@@ -50,11 +58,12 @@ pub fn horizontal_normal(
     d.z = 0.0;
     let mut a = *line_dir;
     a.z = 0.0;
+    let steep = a.norm() < STEEP_LINE_DEG.to_radians().cos() * line_dir.norm();
     let n = match a.try_normalize(1e-9) {
-        // A horizontal-ish line: remove the along-line part.
-        Some(a) => d - a * d.dot(&a),
-        // A vertical line (the handle): any horizontal direction is perpendicular.
-        None => d,
+        // A line nearer horizontal (the wire): remove the along-line part.
+        Some(a) if !steep => d - a * d.dot(&a),
+        // A steep line (the handle): every horizontal direction is perpendicular enough.
+        _ => d,
     };
     n.try_normalize(1e-9).ok_or(PoseError::Degenerate {
         what: "target and robot on one vertical line",
@@ -226,5 +235,28 @@ mod tests {
             rod.to_homogeneous(),
             epsilon = 1e-12
         );
+    }
+
+    #[test]
+    fn a_nearly_vertical_handle_is_seen_from_the_robot_whatever_its_tilt() {
+        // The demo's measured axes of one hung handle, 0.06 deg apart: with the exact
+        // perpendicular the second look stood 60 deg round the handle from the first.
+        let handle = Point3::new(1.3, 0.002, 1.89);
+        let robot = Point3::new(0.0, 0.0, 0.6);
+        for axis in [
+            Vector3::new(-0.000_117, -0.001_184, 1.0),
+            Vector3::new(0.001_006, 0.000_441, 1.0),
+            Vector3::z(),
+        ] {
+            let cam = level_look_pose(&handle, &axis, &robot, 0.45, &Vector3::y()).expect("look");
+            let seen_from = (cam.translation.vector - handle.coords).normalize();
+            let towards_robot = Vector3::new(-1.3, -0.002, 0.0).normalize();
+            assert_relative_eq!(seen_from, towards_robot, epsilon = 1e-12);
+        }
+        // A wire sloping 30 deg (steeper than any span end) keeps the exact perpendicular.
+        let slope = Vector3::new(0.0, 30f64.to_radians().cos(), 30f64.to_radians().sin());
+        let n = horizontal_normal(&slope, &robot, &handle).expect("normal");
+        assert_relative_eq!(n.dot(&slope), 0.0, epsilon = 1e-12);
+        assert_relative_eq!(n, Vector3::x(), epsilon = 1e-12);
     }
 }
