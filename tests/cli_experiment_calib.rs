@@ -48,7 +48,7 @@ fn run_experiment_with(name: &str, extra: &[&str], out: &Path) -> serde_json::Va
     assert_eq!(results["experiment"], name);
     assert_eq!(results["seeds"].as_array().map(Vec::len), Some(2));
     // Ours ran with its own keypoint selection, and results.json says so.
-    assert_eq!(results["parameters"]["orb_distribution"], "quadtree");
+    assert_eq!(results["parameters"]["orb_distribution"], "retain-best");
     results
 }
 

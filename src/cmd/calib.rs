@@ -73,7 +73,8 @@ pub struct SelfArgs {
     pub eq15_world_points: WorldPointsArg,
     /// ORB keypoint selection: quadtree (the paper's) or retain-best (the strongest corners;
     /// far more robust on noisy images, see `rodlog experiment noise --orb-distribution`).
-    /// Default: the method's own (`SelfCalMethod::keypoint_distribution`: the quadtree).
+    /// Default: the method's own (`SelfCalMethod::keypoint_distribution`: ours retain-best,
+    /// the paper's the quadtree).
     #[arg(long, value_enum)]
     pub distribution: Option<Distribution>,
 }

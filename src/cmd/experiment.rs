@@ -75,7 +75,7 @@ pub struct ExperimentOptions {
     pub no_reference: bool,
     /// ORB keypoint selection of our self-calibration in noise, motions and datasets (the
     /// other experiments ignore it): quadtree (the paper's) or retain-best (OpenCV's
-    /// strongest corners). Default: ours' own (the quadtree).
+    /// strongest corners). Default: ours' own (retain-best).
     #[arg(long, value_enum)]
     #[serde(default)]
     pub orb_distribution: Option<super::calib::Distribution>,

@@ -808,4 +808,75 @@ mod tests {
             harris_response_clamped(&view, 3, 10).to_bits()
         );
     }
+    /// Correct GMS matches (within 3 px of the warp) between a textured image and its warp,
+    /// both with Gaussian noise of `sigma` levels, with `distribution`.
+    fn correct_gms_matches(distribution: KeypointDistribution, sigma: f64) -> (usize, usize) {
+        use crate::features::synth::{apply_homography, similarity, warp_homography};
+        use crate::features::{GmsParams, MatchParams, gms_filter, match_brute_force};
+        let (w, h) = (640, 512);
+        let a = textured_image(w, h, 11);
+        let hom = similarity(8f64.to_radians(), 0.95, 320.0, 256.0, 6.0, -4.0);
+        let Some(b) = warp_homography(&a, &hom, w, h, 128) else {
+            panic!("singular warp");
+        };
+        let mut rng = rng::SplitMix64::new(21);
+        let noisy = |img: &GrayBuf, rng: &mut rng::SplitMix64| {
+            let mut out = img.clone();
+            for v in &mut out.data {
+                *v = (f64::from(*v) + sigma * rng.normal())
+                    .round()
+                    .clamp(0.0, 255.0) as u8;
+            }
+            out
+        };
+        let (a, b) = (noisy(&a, &mut rng), noisy(&b, &mut rng));
+        let params = OrbParams {
+            distribution,
+            ..OrbParams::default()
+        };
+        let detect = |img: &GrayBuf| {
+            crate::features::detect_and_describe(&img.view(), &params)
+                .unwrap_or_else(|e| panic!("{e}"))
+        };
+        let (fa, fb) = (detect(&a), detect(&b));
+        let matches = match_brute_force(&fa.descriptors, &fb.descriptors, &MatchParams::default());
+        let keep = gms_filter(
+            &fa.keypoints,
+            (w, h),
+            &fb.keypoints,
+            (w, h),
+            &matches,
+            &GmsParams::default(),
+        );
+        let (mut kept, mut correct) = (0, 0);
+        for (m, k) in matches.iter().zip(keep) {
+            if k {
+                let (ka, kb) = (
+                    fa.keypoints[m.query as usize],
+                    fb.keypoints[m.train as usize],
+                );
+                let (x, y) = apply_homography(&hom, f64::from(ka.x), f64::from(ka.y));
+                kept += 1;
+                correct += usize::from((x - f64::from(kb.x)).hypot(y - f64::from(kb.y)) < 3.0);
+            }
+        }
+        (kept, correct)
+    }
+
+    #[test]
+    fn retain_best_keeps_more_true_matches_under_noise() {
+        // Measured (correct GMS matches, quadtree / retain-best): 1000 / 1537 clean, 131 / 486
+        // at sigma 0.20 and 11 / 235 at 0.30 of the intensity range: the quadtree's nodes
+        // on weak texture hold corners that noise does not let repeat.
+        for (sigma, factor) in [(0.0, 1.2), (0.20 * 255.0, 2.5), (0.30 * 255.0, 5.0)] {
+            let (_, quad) = correct_gms_matches(KeypointDistribution::Quadtree, sigma);
+            let (kept, best) = correct_gms_matches(KeypointDistribution::RetainBest, sigma);
+            eprintln!("sigma {sigma:5.1}: correct quadtree {quad}, retain-best {best} of {kept}");
+            assert!(
+                best as f64 >= factor * quad as f64,
+                "sigma {sigma}: retain-best {best} vs quadtree {quad}"
+            );
+            assert!(best * 2 > kept, "sigma {sigma}: {best} of {kept} correct");
+        }
+    }
 }

@@ -80,18 +80,19 @@ impl SelfCalMethod {
         }
     }
 
-    /// The method's ORB keypoint selection: the ORB-SLAM quadtree, the paper's, for every
-    /// method today. Retain-best (`--distribution retain-best`) measures better for ours
-    /// (`rodlog experiment noise --orb-distribution`, 16 trials x 18 views at 640x512, image
-    /// noise sigma 0.05-0.30): our RGB-D calibration answers at every level, 0.055-0.20 deg /
-    /// 0.47-1.18 mm (median) off, where with the quadtree it is 0.071-0.23 deg / 0.55-1.18 mm
-    /// off up to 0.15 and refuses 10, 15 and 16 of 16 trials at 0.20, 0.25 and 0.30; on the
-    /// clean calib-18 views the two are level. It is not ours' default yet: with it the
-    /// demo's remove refused (its look at the hung rod's handle planned the wrist into the
-    /// tool), and the drift check's statistics were measured with the quadtree.
+    /// The method's ORB keypoint selection. The paper's (and paper+ba's): the ORB-SLAM
+    /// quadtree. Ours: retain-best, OpenCV's strongest corners, chosen by measurement
+    /// (`rodlog experiment noise --orb-distribution`, `rodlog experiment matchers`): under
+    /// image noise the quadtree spends its nodes on weak corners that do not repeat, and our
+    /// RGB-D calibration refused most trials from sigma 0.20 with it, where with retain-best
+    /// it answers at every level of the paper's figure (sigma 0.05-0.30); on clean views the
+    /// two are level. The drift check keeps the quadtree
+    /// ([`super::drift::DRIFT_KEYPOINT_DISTRIBUTION`]), with which its statistics were
+    /// measured.
     pub fn keypoint_distribution(self) -> KeypointDistribution {
         match self {
-            Self::Paper | Self::PaperBa | Self::Ours => KeypointDistribution::Quadtree,
+            Self::Paper | Self::PaperBa => KeypointDistribution::Quadtree,
+            Self::Ours => KeypointDistribution::RetainBest,
         }
     }
 }

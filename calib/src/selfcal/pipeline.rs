@@ -32,7 +32,7 @@ use crate::relpose::{CameraModel, EssentialParams, RigidRansacParams};
 #[derive(Debug, Clone, PartialEq)]
 pub struct SelfCalParams {
     /// ORB (default: the paper's, 2000 features, 8 levels x1.2, FAST 20 -> 7, with ours'
-    /// keypoint selection, [`SelfCalMethod::keypoint_distribution`]: the quadtree).
+    /// keypoint selection, [`SelfCalMethod::keypoint_distribution`]: retain-best).
     pub orb: OrbParams,
     /// Brute-force matching (default: nearest neighbours, no cross-check: GMS wants them all).
     pub matching: MatchParams,
