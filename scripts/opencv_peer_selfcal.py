@@ -2,8 +2,13 @@
 """OpenCV peer of `rodlog calib self`: hand-eye self-calibration from natural
 features with stock OpenCV, on a rodlog recording (ROS 2 MCAP, decoded by mcap_ros2).
 
-Usage: opencv_peer_selfcal.py REC.mcap [--mode auto|rgbd|mono] [--features sift|orb]
+Usage: opencv_peer_selfcal.py REC.mcap|VIEWS_DIR [--mode auto|rgbd|mono] [--features sift|orb]
                               [--nfeatures N] [--threads N]
+
+VIEWS_DIR instead of a recording: a folder with views.json, {"k": [9, row-major],
+"dist": [k1, k2, p1, p2, k3], "views": [{"gray": PNG file, "depth": raw little-endian
+float32 metres file or null, "width", "height", "base_from_tool0": [16, row-major]}]}
+(`rodlog experiment noise` writes its noisy views so, to run this peer on the same pixels).
 
 Reads only what the robot has: /camera/color/image_raw, /camera/depth/image_raw,
 /camera/color/camera_info, /tf and /tf_static (hand pose base_link -> tool0, interpolated at
@@ -27,6 +32,7 @@ with every result as tool0_from_camera (= OpenCV's cam2gripper).
 
 import argparse
 import json
+import os
 import sys
 import time
 
@@ -189,6 +195,26 @@ def read(path, mode):
     return views, k, dist
 
 
+def read_views_dir(path):
+    """The views of a VIEWS_DIR (module docs)."""
+    with open(os.path.join(path, "views.json")) as f:
+        spec = json.load(f)
+    k = np.array(spec["k"], dtype=np.float64).reshape(3, 3)
+    dist = np.array(list(spec["dist"]) + [0.0] * 5, dtype=np.float64)[:5]
+    views = []
+    for i, v in enumerate(spec["views"]):
+        g = cv2.imread(os.path.join(path, v["gray"]), cv2.IMREAD_GRAYSCALE)
+        if g is None:
+            raise SystemExit(f"view {i}: cannot read {v['gray']}")
+        d = None
+        if v.get("depth"):
+            d = np.fromfile(os.path.join(path, v["depth"]), "<f4").astype(np.float64)
+            d = d.reshape(v["height"], v["width"])
+        b = np.array(v["base_from_tool0"], dtype=np.float64).reshape(4, 4)
+        views.append({"stamp": i, "gray": g, "depth": d, "base_from_tool0": b})
+    return views, k, dist
+
+
 def features(views, kind, n):
     det = cv2.SIFT_create(nfeatures=n) if kind == "sift" else cv2.ORB_create(nfeatures=n)
     out = []
@@ -288,7 +314,7 @@ def main():
     cv2.setNumThreads(a.threads)
     cv2.setRNGSeed(1)
     t0 = time.perf_counter()
-    views, k, dist = read(a.rec, a.mode)
+    views, k, dist = read_views_dir(a.rec) if os.path.isdir(a.rec) else read(a.rec, a.mode)
     mode = a.mode
     if mode == "auto":
         mode = "rgbd" if all(v["depth"] is not None for v in views) else "mono"

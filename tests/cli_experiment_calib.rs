@@ -104,6 +104,46 @@ fn calibration_experiments_smoke_runs() {
     assert!(datasets["sections"]["paper_improvement"].is_array());
 }
 
+/// The OpenCV depth-PnP peer runs on the same noisy views at every level when the reference
+/// venv is there: one trial, each level's row counts its run, and the comparison is made.
+#[test]
+fn the_noise_experiment_runs_the_opencv_peer_on_the_same_views() {
+    // The experiment finds the venv as testkit does (RODLOG_REF_VENV, else .venv-ref).
+    if testkit::ref_venv("noise experiment with the OpenCV peer").is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("noise");
+    let results = experiment_results(&["noise", "--trials", "1", "--image-scale", "0.5"], &out);
+    let rows = results["sections"]["opencv_peer"]
+        .as_array()
+        .expect("peer rows");
+    assert_eq!(rows.len(), 6);
+    for r in rows {
+        assert_eq!(r["peer_runs"], 1, "{r}");
+    }
+    // At the lowest noise both answer on 320x256 views (measured: ours 0.12 deg / 0.64 mm,
+    // the peer's best solver 0.6 deg / 5.6 mm).
+    assert_eq!(rows[0]["trials"], 1, "{}", rows[0]);
+    let comparisons = results["sections"]["comparisons"]
+        .as_array()
+        .expect("comparisons");
+    assert!(
+        comparisons.iter().any(|c| c["what"]
+            .as_str()
+            .is_some_and(|w| w.contains("depth-PnP peer"))
+            && !c["rodlog"].as_str().unwrap_or("").contains("not measured")),
+        "{comparisons:?}"
+    );
+    // Its views were written to a scratch folder and removed.
+    assert!(!out.join(".opencv-peer-tmp").exists());
+    let report = std::fs::read_to_string(out.join("report.md")).expect("report.md");
+    assert!(
+        report.contains("Beside the OpenCV depth-PnP peer"),
+        "{report}"
+    );
+}
+
 /// The paper's claim at this test's small scale: on four seeded simulator trials (18 views
 /// each, 320x256, no added noise), the paper's method and ours (RGB-D) each beat ZHI on the
 /// mean e_t and the mean e_R, every method answering on every trial. The margins are printed.

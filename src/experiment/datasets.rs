@@ -147,6 +147,7 @@ pub fn run(settings: &Settings) -> Result<()> {
                 Ok(DatasetItem::Simulator(TrialRecord {
                     seed,
                     outcomes: vec![outcomes],
+                    peer: Vec::new(),
                 }))
             })
             .collect::<Result<Vec<_>>>();

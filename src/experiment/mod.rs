@@ -39,6 +39,7 @@ pub mod motions;
 pub mod noise;
 pub mod progress;
 pub mod report;
+pub mod selfcal_peer;
 pub mod shard;
 pub mod stats;
 pub mod task_runs;

@@ -44,6 +44,7 @@ pub fn run(settings: &Settings) -> Result<()> {
         1,
         trials,
         counts.len(),
+        None,
         |seed, c| {
             let k = counts.get(c).copied().unwrap_or(VIEWS);
             (k, NOISE_SIGMA, sim::rng::key(seed, STREAM_NOISE, 0))

@@ -50,6 +50,7 @@ use sim::render::{
 
 use super::progress::Progress;
 use super::report::{Comparison, Report, Results, Table, fmt_num, fmt_pct};
+use super::selfcal_peer::{Peer, PeerOutcome};
 use super::stats::{RefusalCounter, Summary};
 use super::{Settings, trial_seed};
 
@@ -383,6 +384,10 @@ pub struct TrialRecord {
     pub seed: u64,
     /// Per condition, every method's outcome.
     pub outcomes: Vec<MethodOutcomes>,
+    /// Per condition, the OpenCV depth-PnP peer's outcome on the same views, where it ran
+    /// (the noise experiment with the reference venv; empty otherwise).
+    #[serde(default)]
+    pub peer: Vec<Option<PeerOutcome>>,
 }
 
 /// Books trial records, in trial order, into per-condition cells (`cells[c][m]`) and the
@@ -480,10 +485,12 @@ pub fn all_answered_table(
 /// Runs the trials of `settings.mode` (all, one shard's, none when merging): each renders its
 /// [`VIEWS`] views once and runs the methods under each of `conditions` conditions, where
 /// `condition(seed, c)` gives the views used, the noise sigma and the noise seed. `stream`
-/// separates the experiments' trial seeds. `None` for a shard run (its records were written).
+/// separates the experiments' trial seeds. With `peer`, the OpenCV depth-PnP peer runs on
+/// each condition's RGB-D views too. `None` for a shard run (its records were written).
 ///
 /// # Errors
-/// Rendering failures; writing or reading shard records.
+/// Rendering failures; writing or reading shard records; starting the peer.
+#[allow(clippy::too_many_arguments)]
 pub fn run_trials(
     settings: &Settings,
     ctx: &SimContext,
@@ -491,6 +498,7 @@ pub fn run_trials(
     stream: u64,
     trials: usize,
     conditions: usize,
+    peer: Option<&Peer>,
     condition: impl Fn(u64, usize) -> (usize, f64, u64),
 ) -> Result<Option<Vec<TrialRecord>>> {
     settings.run_items(trials, |ids| {
@@ -501,15 +509,30 @@ pub fn run_trials(
                 let seed = trial_seed(settings.seed, stream, t as u64);
                 let trial = render_trial(ctx, seed, VIEWS)?;
                 progress.inc(1);
+                let mut peer_outcomes = Vec::new();
                 let outcomes = (0..conditions)
                     .map(|c| {
                         let (n, sigma, noise_seed) = condition(seed, c);
-                        let outcomes = run_methods(ctx, &trial, n, sigma, noise_seed);
+                        let outcomes = run_methods(ctx, &trial, n, sigma, noise_seed)?;
+                        if let Some(peer) = peer {
+                            let views = calib_views(ctx, &trial, n, sigma, noise_seed, true)?;
+                            let tag = format!("{seed:016x}-{c}");
+                            peer_outcomes.push(Some(peer.run(
+                                &views,
+                                &ctx.camera,
+                                &trial.true_mount,
+                                &tag,
+                            )?));
+                        }
                         progress.inc(1);
-                        outcomes
+                        Ok(outcomes)
                     })
                     .collect::<Result<Vec<_>>>()?;
-                Ok(TrialRecord { seed, outcomes })
+                Ok(TrialRecord {
+                    seed,
+                    outcomes,
+                    peer: peer_outcomes,
+                })
             })
             .collect::<Result<Vec<_>>>();
         progress.finish();
@@ -863,6 +886,115 @@ pub fn refusal_table(refusals: &RefusalCounter) -> Table {
     t
 }
 
+/// Ours-rgbd beside the OpenCV depth-PnP peer per condition
+/// ([`super::selfcal_peer::compare_level`]): the table (`None` when the peer never ran), its
+/// rows for results.json, and the comparison (behind unless ours is ahead on both rotation and
+/// translation at every level).
+pub fn peer_section(
+    records: &[TrialRecord],
+    conditions: &[String],
+) -> (
+    Option<Table>,
+    Vec<super::selfcal_peer::LevelComparison>,
+    Comparison,
+) {
+    let ours_index = METHODS.iter().position(|m| *m == "ours-rgbd").unwrap_or(1);
+    let ran = records.iter().any(|r| r.peer.iter().any(Option::is_some));
+    let levels: Vec<_> = conditions
+        .iter()
+        .enumerate()
+        .map(|(c, cond)| {
+            let ours: Vec<Option<&PoseErrors>> = records
+                .iter()
+                .map(|r| {
+                    r.outcomes
+                        .get(c)
+                        .and_then(|o| o.get(ours_index))
+                        .and_then(|(_, o)| o.as_ref().ok())
+                })
+                .collect();
+            let peer: Vec<Option<&PeerOutcome>> = records
+                .iter()
+                .map(|r| r.peer.get(c).and_then(Option::as_ref))
+                .collect();
+            super::selfcal_peer::compare_level(cond, &ours, &peer)
+        })
+        .collect();
+    let what = "ours-rgbd ahead of the OpenCV depth-PnP peer on the same noisy views (median rotation and translation, at every level)";
+    let claim = "ahead on both (not in the paper)";
+    if !ran {
+        return (
+            None,
+            levels,
+            Comparison::new(
+                what,
+                claim,
+                "not measured: the peer did not run".to_owned(),
+                true,
+            ),
+        );
+    }
+    let mut table = Table::new(&[
+        "noise",
+        "ours answered",
+        "peer answered",
+        "both answered",
+        "ours-rgbd deg",
+        "ours-rgbd mm",
+        "peer solver",
+        "peer deg",
+        "peer mm",
+        "ours ahead",
+    ]);
+    for l in &levels {
+        table.row(vec![
+            l.condition.clone(),
+            format!("{}/{}", l.ours_answered, l.peer_runs),
+            format!("{}/{}", l.peer_runs - l.peer_refused, l.peer_runs),
+            l.trials.to_string(),
+            fmt_num(l.ours_deg, 3),
+            fmt_num(l.ours_mm, 2),
+            l.peer_solver.clone(),
+            fmt_num(l.peer_deg, 3),
+            fmt_num(l.peer_mm, 2),
+            if l.ahead() { "yes" } else { "no" }.to_owned(),
+        ]);
+    }
+    let behind: Vec<String> = levels
+        .iter()
+        .filter(|l| !l.ahead())
+        .map(|l| {
+            format!(
+                "{}: answered {} vs {} of {}, {} deg / {} mm vs {} deg / {} mm",
+                l.condition,
+                l.ours_answered,
+                l.peer_runs - l.peer_refused,
+                l.peer_runs,
+                fmt_num(l.ours_deg, 3),
+                fmt_num(l.ours_mm, 2),
+                fmt_num(l.peer_deg, 3),
+                fmt_num(l.peer_mm, 2)
+            )
+        })
+        .collect();
+    let rodlog = if behind.is_empty() {
+        format!("ahead at all {} levels", levels.len())
+    } else {
+        format!(
+            "not at {} of {} levels ({})",
+            behind.len(),
+            levels.len(),
+            behind.join("; ")
+        )
+    };
+    let behind_any = !behind.is_empty();
+    (
+        Some(table),
+        levels,
+        Comparison::new(what, claim, rodlog, behind_any),
+    )
+}
+
 /// Runs the experiment (module docs).
 ///
 /// # Errors
@@ -870,6 +1002,10 @@ pub fn refusal_table(refusals: &RefusalCounter) -> Table {
 pub fn run(settings: &Settings) -> Result<()> {
     let trials = settings.trials_or(DEFAULT_TRIALS);
     let ctx = SimContext::new(settings)?;
+    let peer = Peer::find(
+        settings.reference,
+        settings.out.root().join(".opencv-peer-tmp"),
+    )?;
     let conditions: Vec<String> = NOISE_SIGMAS
         .iter()
         .map(|s| format!("sigma={s:.2}"))
@@ -881,6 +1017,7 @@ pub fn run(settings: &Settings) -> Result<()> {
         0,
         trials,
         NOISE_SIGMAS.len(),
+        peer.as_ref(),
         |seed, c| {
             let sigma = NOISE_SIGMAS.get(c).copied().unwrap_or(0.0);
             (VIEWS, sigma, sim::rng::key(seed, STREAM_NOISE, c as u64))
@@ -923,6 +1060,25 @@ pub fn run(settings: &Settings) -> Result<()> {
          point 7.81. A trustworthy uncertainty keeps about 95 % (90-99 %).",
     );
     report.table(&coverage_table(&conditions, &cells, "noise"));
+    let (peer_table, peer_rows, peer_comparison) = peer_section(&records, &conditions);
+    report.heading("Beside the OpenCV depth-PnP peer, on the same noisy views");
+    report.paragraph(
+        "scripts/opencv_peer_selfcal.py (SIFT 4000, ratio 0.8, solvePnPRansac + \
+         solvePnPRefineLM of each pair on the first view's depth, a spanning tree of the \
+         pairs, calibrateHandEye) given each trial's RGB-D views at each level, noise \
+         included, and the same intrinsics. Medians over the trials where both answered; the \
+         peer's figures are its best solver's at that level (the smallest median rotation \
+         error of its five), which favours the peer.",
+    );
+    match &peer_table {
+        Some(t) => report.table(t),
+        None => report.paragraph(
+            "**The peer did not run**: no reference venv (scripts/venv.sh, or \
+             RODLOG_REF_VENV), or --no-reference.",
+        ),
+    }
+    let mut comparisons = comparisons;
+    comparisons.push(peer_comparison);
     box_plots(
         settings,
         &mut report,
@@ -947,6 +1103,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     results.parameter("height", ctx.camera.height)?;
     results.section("cells", &rows)?;
     results.section("cells_all_answered", &common_rows)?;
+    results.section("opencv_peer", &peer_rows)?;
     results.section("refusals", &refusals)?;
     report.comparisons(&comparisons);
     results.section("comparisons", &comparisons)?;
@@ -1049,10 +1206,12 @@ mod tests {
                     Some(3.0),
                     Some(4.0),
                 ])],
+                peer: Vec::new(),
             },
             TrialRecord {
                 seed: 2,
                 outcomes: vec![outcomes([Some(5.0), Some(6.0), None, Some(7.0), Some(8.0)])],
+                peer: Vec::new(),
             },
         ];
         let (cells, trials) = all_answered(&records, &conditions);
