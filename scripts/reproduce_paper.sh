@@ -3,10 +3,15 @@
 # (ARCHITECTURE.md section 7): every experiment at the paper's protocol, then one report.
 #
 #   scripts/reproduce_paper.sh [--out DIR] [--ray ADDRESS] [--shards N] [--shecar DIR]
-#                              [--rodlog BIN] [--size full|smoke]
+#                              [--rodlog BIN] [--size full|smoke] [--only NAME,...]
 #
 # --out DIR       where everything goes (default results/paper): DIR/NAME/ per experiment
-#                 (report.md, results.json, plots/) and DIR/report.md, the whole report.
+#                 (report.md, results.json, plots/, made.txt: the commit, machine, date,
+#                 options and wall time that made it) and DIR/report.md, the whole report.
+# --only LIST     run only these experiments (comma-separated names of the protocol below);
+#                 the others' folders already in DIR are kept and reported with their own
+#                 made.txt, so a long run can be made in parts (the report says when its
+#                 parts come from different commits, and lists what is missing).
 # --ray ADDRESS   run each experiment sharded on a Ray cluster (scripts/ray/rodlog_ray.py;
 #                 the binary and DIR must be at the same paths on every worker).
 # --shards N      shards per experiment on Ray (default 2 per worker CPU the head reports).
@@ -36,6 +41,7 @@ shards=""
 shecar=""
 rodlog=""
 size=full
+only=""
 while [ $# -gt 0 ]; do
     case "$1" in
         --out) out=$2; shift 2 ;;
@@ -44,7 +50,8 @@ while [ $# -gt 0 ]; do
         --shecar) shecar=$2; shift 2 ;;
         --rodlog) rodlog=$2; shift 2 ;;
         --size) size=$2; shift 2 ;;
-        -h|--help) sed -n '2,29p' "$0"; exit 0 ;;
+        --only) only=",$2,"; shift 2 ;;
+        -h|--help) sed -n '2,34p' "$0"; exit 0 ;;
         *) echo "reproduce_paper: unknown option $1 (--help lists them)" >&2; exit 2 ;;
     esac
 done
@@ -90,13 +97,37 @@ protocol=(
     "maintenance|--trials 50 --sites seeded|--trials 1 --sites seeded --image-scale 0.5"
 )
 
+if [ -n "$only" ]; then
+    for name in ${only//,/ }; do
+        known=""
+        for entry in "${protocol[@]}"; do
+            folder=${entry%%|*}
+            [ "${folder%%=*}" = "$name" ] && known=1
+        done
+        [ -n "$known" ] || { echo "reproduce_paper: --only: no experiment $name in the protocol" >&2; exit 2; }
+    done
+fi
+
+# Parts kept from an earlier run must be of the same size.
+if [ -n "$only" ] && [ -d "$out" ]; then
+    for made_file in "$out"/*/made.txt; do
+        [ -f "$made_file" ] || continue
+        kept_size=$(sed -n 's/^size=//p' "$made_file")
+        [ "$kept_size" = "$size" ] || {
+            echo "reproduce_paper: $made_file was made at --size $kept_size, not $size: use another --out, or run it again at $size" >&2
+            exit 2
+        }
+    done
+fi
+
+commit=$(git rev-parse HEAD 2>/dev/null || echo unknown)
+dirty=$(git status --porcelain 2>/dev/null | grep -qv '^??' && echo " (with uncommitted changes)" || true)
 mkdir -p "$out"
-started=$(date +%s)
-rows=""
 for entry in "${protocol[@]}"; do
     IFS='|' read -r folder full smoke <<<"$entry"
     name=${folder%%=*}
     experiment=${folder#*=}
+    case "$only" in ""|*",$name,"*) ;; *) continue ;; esac
     opts=$full
     [ "$size" = smoke ] && opts=$smoke
     dir="$out/$name"
@@ -112,19 +143,53 @@ for entry in "${protocol[@]}"; do
         "$rodlog" experiment "$experiment" $opts --out "$dir" >&2
     fi
     wall=$(( $(date +%s) - t0 ))
-    rows="$rows| [$name]($name/report.md) | \`$opts\` | $wall |"$'\n'
+    {
+        echo "commit=$commit$dirty"
+        echo "machine=$(uname -sm), $(nproc) cores"
+        echo "date=$(date -u +%Y-%m-%d)"
+        echo "size=$size"
+        echo "options=$opts${ray:+ (on Ray at $ray)}"
+        echo "wall_s=$wall"
+    } > "$dir/made.txt"
 done
-total=$(( $(date +%s) - started ))
 
-commit=$(git rev-parse HEAD 2>/dev/null || echo unknown)
-dirty=$(git status --porcelain 2>/dev/null | grep -qv '^??' && echo " (with uncommitted changes)" || true)
+# The table of parts, from each folder's made.txt (kept parts included).
+made() { sed -n "s/^$2=//p" "$1/made.txt" 2>/dev/null | head -1; }
+rows=""
+total=0
+commits=""
+missing=""
+for entry in "${protocol[@]}"; do
+    IFS='|' read -r folder _ _ <<<"$entry"
+    name=${folder%%=*}
+    dir="$out/$name"
+    if [ ! -f "$dir/results.json" ] || [ ! -f "$dir/made.txt" ]; then
+        missing="$missing $name"
+        rows="$rows| $name | not run | - | - | - |"$'\n'
+        continue
+    fi
+    wall=$(made "$dir" wall_s)
+    total=$(( total + ${wall:-0} ))
+    c=$(made "$dir" commit)
+    case " $commits " in *" ${c%% *} "*) ;; *) commits="$commits ${c%% *}" ;; esac
+    rows="$rows| [$name]($name/report.md) | \`$(made "$dir" options)\` | ${c:0:12}${c:40} | $(made "$dir" date) | $wall |"$'\n'
+done
+# shellcheck disable=SC2086 # a list of words
+set -- $commits
 {
     echo "# The paper, reproduced"
     echo
     [ -n "$shecar_note" ] && { echo "$shecar_note"; echo; }
     [ "$size" = smoke ] && { echo "**Smoke size: a trial or two per condition on small images. These numbers check the pipeline and mean nothing.**"; echo; }
-    echo "Made by \`scripts/reproduce_paper.sh --size $size${ray:+ --ray $ray}\` at commit \`$commit\`$dirty"
-    echo "on $(uname -sm), $(nproc) cores, $(date -u +%Y-%m-%d); wall time ${total} s"
+    [ -n "$missing" ] && { echo "**Not run yet:$missing.** Their tables are missing below (\`--only\` runs them into this folder)."; echo; }
+    if [ $# -gt 1 ]; then
+        echo "**Made in parts at $# commits ($*): each experiment's commit is in the table below.**"
+        echo
+    fi
+    at=""
+    [ $# -eq 1 ] && at=", at commit \`$1\`"
+    echo "Made by \`scripts/reproduce_paper.sh --size $size${ray:+ --ray $ray}\`$at"
+    echo "on $(uname -sm), $(nproc) cores; wall time ${total} s, the sum of the experiments' below"
     echo "(on a Ray cluster of N one-CPU workers the experiments' runs divide by about N: they are"
     echo "independent trials; each experiment's merge is seconds)."
     echo
@@ -159,13 +224,14 @@ else:
     print(f"None: rodlog is level with or ahead of the paper and its peers on all {compared} compared figures.")
 PY
     echo
-    echo "| experiment | options | wall (s) |"
-    echo "|---|---|---|"
+    echo "| experiment | options | commit | date | wall (s) |"
+    echo "|---|---|---|---|---|"
     printf '%s' "$rows"
     echo
     for entry in "${protocol[@]}"; do
         IFS='|' read -r folder _ _ <<<"$entry"
         name=${folder%%=*}
+        [ -f "$out/$name/report.md" ] || continue
         echo
         # Each experiment's report, its headings one level down and its pictures re-rooted.
         sed -e 's/^#/##/' -e "s#](plots/#]($name/plots/#g" -e "s#](images/#]($name/images/#g" "$out/$name/report.md"
