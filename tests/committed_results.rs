@@ -1,6 +1,8 @@
 //! The committed experiment results (`results/`) agree with themselves: every condition of
 //! each `results.json` appears in its `report.md` with the same runs, successes, refusals,
-//! failures and unsafe commands (the maintenance bins with the same verdict counts), and
+//! failures and unsafe commands (the maintenance bins with the same verdict counts; the
+//! calibration experiments' cells, the ablation's variants and the matchers' rows with the
+//! same answers and refusals), every comparison with the paper as results.json has it, and
 //! every plot the report shows is committed beside it.
 //! The numbers were made by the command in `results/README.md`; a report edited by hand, or
 //! regenerated without its results.json, fails here.
@@ -57,12 +59,61 @@ fn committed_reports_say_what_their_results_say() {
                     );
                 }
             }
+        } else if let Some(cells) = sections["cells"]
+            .as_array()
+            .or(sections["simulator"].as_array())
+        {
+            // The calibration experiments (noise, motions, datasets): | condition | method
+            // | ... | refused/attempts |.
+            assert!(!cells.is_empty(), "{}", dir.display());
+            for c in cells {
+                let row = row_of(&dir, &report, &[&c["condition"], &c["method"]]);
+                assert_eq!(
+                    row.iter().rev().nth(1).map(String::as_str),
+                    Some(format!("{}/{}", c["refused"], c["attempts"]).as_str()),
+                    "{}: refusals of {row:?}",
+                    dir.display()
+                );
+            }
+        } else if let Some(variants) = sections["variants"].as_array() {
+            // The ablation: | variant | change | answered/trials | ...
+            assert!(!variants.is_empty(), "{}", dir.display());
+            for v in variants {
+                let row = row_of(&dir, &report, &[&v["variant"], &v["change"]]);
+                assert_eq!(
+                    row.get(3).map(String::as_str),
+                    Some(format!("{}/{}", v["answered"], v["trials"]).as_str()),
+                    "{}: answers of {row:?}",
+                    dir.display()
+                );
+            }
+        } else if let Some(summary) = sections["summary"].as_array() {
+            // The matchers, a table per set: | method | refused/pairs | ...
+            assert!(!summary.is_empty(), "{}", dir.display());
+            for m in summary {
+                let set = m["set"].as_str().unwrap_or("");
+                let heading = format!("## {set} pairs");
+                let section = report
+                    .split("\n## ")
+                    .find(|part| format!("## {part}").starts_with(&heading))
+                    .unwrap_or_else(|| panic!("{}: no section {heading}", dir.display()));
+                let row = row_of(&dir, section, &[&m["method"]]);
+                assert_eq!(
+                    row.get(2).map(String::as_str),
+                    Some(format!("{}/{}", m["refused"], m["pairs"]).as_str()),
+                    "{}: {set} refusals of {row:?}",
+                    dir.display()
+                );
+            }
         } else {
             // The maintenance experiment: | bin | runs | no check | drifted | consistent
             // | cannot tell | 4 views: cannot tell | looked again | ...
-            let bins = sections["bins"]
-                .as_array()
-                .unwrap_or_else(|| panic!("{}: neither groups nor bins", dir.display()));
+            let bins = sections["bins"].as_array().unwrap_or_else(|| {
+                panic!(
+                    "{}: none of groups, cells, variants, summary or bins",
+                    dir.display()
+                )
+            });
             assert!(!bins.is_empty(), "{}", dir.display());
             for b in bins {
                 let row = row_of(&dir, &report, &[&b["bin"], &b["runs"]]);
@@ -92,6 +143,17 @@ fn committed_reports_say_what_their_results_say() {
                     );
                 }
             }
+        }
+        // Every comparison with the paper is in the report as results.json has it.
+        for c in sections["comparisons"].as_array().into_iter().flatten() {
+            let text = |k: &str| c[k].as_str().unwrap_or_default().to_owned();
+            let row = format!(
+                "| {} | {} | {} |",
+                text("what"),
+                text("paper"),
+                text("rodlog")
+            );
+            assert!(report.contains(&row), "{}: no row {row}", dir.display());
         }
         for image in report
             .split("](")
