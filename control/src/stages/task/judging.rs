@@ -679,6 +679,14 @@ impl Task {
                 )
                 .map_err(|e| Stop::failed("bad_geometry", e.to_string()))?;
                 self.memory.rod = Rod::OnWire(rod);
+                // The wire runs through the measured rod's hook: unless a capture measured
+                // the wire itself, plans keep clear of that wire, not of the survey's (which
+                // can be centimetres off where the rod hangs).
+                if self.memory.wire_in_base.is_none() {
+                    let hook = rod * robot::grounding_rod::rod_from_hook();
+                    self.memory.wire_in_base =
+                        Some((Point3::from(hook.translation.vector), wire_dir));
+                }
                 rod
             }
             HandleSite::Rack => {

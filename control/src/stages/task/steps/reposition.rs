@@ -89,12 +89,6 @@ pub(crate) fn toward_handle(task: &mut Task, grasp: &Isometry3<f64>) -> Result<O
     let Some(moving) = forward_move(task, grasp, reaches, capture_handle::NAME)? else {
         return Ok(None);
     };
-    // The rod on the wire as last measured, in the frame of the base moved ahead: where the
-    // next look points.
-    if let Rod::OnWire(base_from_rod) = task.memory.rod {
-        task.memory.rod =
-            Rod::OnWire(Isometry3::translation(-moving.move_m, 0.0, 0.0) * base_from_rod);
-    }
     let p = task.planner();
     let (q, lift) = (p.q()?, p.lift()?);
     p.check_lift_move(&q, lift, 0.0)?;
@@ -176,6 +170,15 @@ fn forward_move(
         return Ok(None);
     }
     task.memory.repositioned = true;
+    // What was measured in `base_link` (the wire, the rod on it), in the frame of the base
+    // moved ahead: where the next plans and looks take them.
+    let ahead = Isometry3::translation(-move_m, 0.0, 0.0);
+    if let Rod::OnWire(base_from_rod) = task.memory.rod {
+        task.memory.rod = Rod::OnWire(ahead * base_from_rod);
+    }
+    if let Some((point, dir)) = task.memory.wire_in_base {
+        task.memory.wire_in_base = Some((ahead * point, dir));
+    }
     Ok(Some(ForwardMove {
         least_m,
         move_m,

@@ -630,6 +630,58 @@ fn a_hung_rod_beyond_the_arms_reach_brings_the_base_nearer_then_the_remove_goes_
 }
 
 #[test]
+fn the_remove_plans_around_the_wire_its_measured_rod_hangs_on() {
+    // The wire and its rod 5 cm below and 3 cm beyond the survey's wire (on seeded sites
+    // measured handles were up to 56 mm from their prior, and the unhook's way down,
+    // planned against the surveyed wire, passed through it).
+    let offset = |c: &crate::stages::task::TaskConfig| {
+        let spot = c.site.work_spot;
+        Vector3::new(spot.yaw_rad.cos(), spot.yaw_rad.sin(), 0.0) * 0.03 - Vector3::z() * 0.05
+    };
+    let mut rig = Rig::with(TaskKind::Remove, |c, b| {
+        c.self_maintenance = false;
+        let off = offset(c);
+        b.wire = b.wire.map(|(p, d)| (p + off, d));
+        b.hung_rod = b
+            .hung_rod
+            .map(|rod| nalgebra::Translation3::from(off) * rod);
+    });
+    assert!(rig.stage.task.memory.wire_in_base.is_none());
+    rig.run_until(LIMIT_S, |r| r.steps().iter().any(|s| s == "grasp_handle"));
+    let Some((point, _)) = rig.stage.task.memory.wire_in_base else {
+        panic!("no wire from the measured rod: {:#?}", rig.events());
+    };
+    // The planning wire is the true one (in base_link), within the handle's measurement.
+    let Ok(base_from_map) = rig.stage.task.planner().base_from_map() else {
+        panic!("no odometry");
+    };
+    let Some((true_point, true_dir)) = rig.behaviour.wire else {
+        panic!("the rig has a wire");
+    };
+    let (p, d) = (
+        base_from_map * true_point,
+        base_from_map.rotation * true_dir,
+    );
+    let off_line = |x: &Point3<f64>| {
+        let v = x - p;
+        (v - d.normalize() * v.dot(&d.normalize())).norm()
+    };
+    assert!(
+        off_line(&point) < 0.005,
+        "{} m off the true wire",
+        off_line(&point)
+    );
+    let survey = base_from_map * rig.stage.task.config.site.wire.point;
+    assert!(
+        off_line(&survey) > 0.05,
+        "the survey's wire {} m off",
+        off_line(&survey)
+    );
+    rig.run(LIMIT_S);
+    assert_done(&rig);
+}
+
+#[test]
 fn look_handle_raises_the_lift_and_points_the_camera_at_the_hung_handle() {
     let rig = quick(TaskKind::Remove);
     assert_eq!(count(&rig, "look_handle", LIFT_COMMAND), 1);
