@@ -25,7 +25,7 @@
 # --size SIZE     full (the protocol below, default) or smoke (a trial or two of each, small
 #                 images: checks the pipeline, its numbers mean nothing).
 #
-# The protocol (full): matchers every set; noise 6 levels x 100; motions 100 per count;
+# The protocol (full): matchers every set (no match pictures: shecar's photos are GPL-3.0); noise 6 levels x 100; motions 100 per count;
 # datasets 100 + shecar; ablation 100 per cell; tasks 100 seeded sites (Table 4); light
 # 50 runs per hour on seeded sites (Table 5), and 17:00-19:30 again with the wrist light;
 # wind 0-4 m/s in 0.5 m/s bins, 50 each; maintenance 50 per bump bin.
@@ -85,7 +85,7 @@ fi
 
 # folder[=experiment]|options at full size|options at smoke size
 protocol=(
-    "matchers||--trials 1 --image-scale 0.25"
+    "matchers|--no-pictures|--trials 1 --image-scale 0.25"
     "noise|--trials 100|--trials 1 --image-scale 0.25"
     "motions|--trials 100|--trials 1 --image-scale 0.25"
     "datasets|--trials 100|--trials 1 --image-scale 0.25"

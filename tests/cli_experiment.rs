@@ -68,3 +68,65 @@ fn matchers_smoke_run_writes_report_results_and_pictures() {
     let pic = out.join("images").join("sim_orb-gms.png");
     assert!(image::open(&pic).is_ok(), "{}", pic.display());
 }
+
+/// `--no-pictures` leaves the match pictures out (shecar's photos are GPL-3.0: a committed
+/// report must not hold them) and changes no number; other experiments refuse the option.
+#[test]
+fn matchers_without_pictures_write_none_and_the_same_numbers() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let run = |extra: &[&str], name: &str| {
+        let out = tmp.path().join(name);
+        let out_s = out.display().to_string();
+        let mut args = vec![
+            "experiment",
+            "matchers",
+            "--trials",
+            "1",
+            "--image-scale",
+            "0.25",
+            "--no-reference",
+            "--out",
+            &out_s,
+        ];
+        args.extend_from_slice(extra);
+        let r = rodlog(&args);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        out
+    };
+    let with = run(&[], "with");
+    let without = run(&["--no-pictures"], "without");
+    let pngs = |dir: &std::path::Path| {
+        std::fs::read_dir(dir.join("images")).map_or(0, |d| d.flatten().count())
+    };
+    assert!(pngs(&with) > 0);
+    assert_eq!(pngs(&without), 0);
+    let report = std::fs::read_to_string(without.join("report.md")).expect("report.md");
+    assert!(!report.contains("](images/"), "{report}");
+    let summary = |dir: &std::path::Path| {
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("results.json")).expect("json"))
+                .expect("parses");
+        v["sections"]["summary"]
+            .as_array()
+            .expect("summary")
+            .iter()
+            .map(|s| {
+                (
+                    s["method"].clone(),
+                    s["refused"].clone(),
+                    s["true_matches"]["mean"].clone(),
+                )
+            })
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(summary(&with), summary(&without));
+    let noise = rodlog(&[
+        "experiment",
+        "noise",
+        "--no-pictures",
+        "--out",
+        "/nonexistent/x",
+    ]);
+    assert!(!noise.status.success());
+    assert!(String::from_utf8_lossy(&noise.stderr).contains("--no-pictures is an option of"));
+}

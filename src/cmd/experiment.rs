@@ -115,6 +115,11 @@ pub struct ExperimentOptions {
     #[arg(long)]
     #[serde(skip)]
     pub keep_failed: bool,
+    /// `matchers` only: no match pictures (they show the pairs' images, and shecar's photos
+    /// are GPL-3.0: a committed report leaves them out). Changes no number.
+    #[arg(long)]
+    #[serde(skip)]
+    pub no_pictures: bool,
 }
 
 /// Our self-calibration's steps under `--with` / `--without` (`None` without either).
@@ -288,6 +293,9 @@ fn run_named(
     {
         bail!("--sites is an option of the task experiments (tasks, light, wind, maintenance)");
     }
+    if options.no_pictures && name != ExperimentName::Matchers {
+        bail!("--no-pictures is an option of `rodlog experiment matchers`");
+    }
     let steps = ours_steps(name, options)?;
     let settings = || -> Result<Settings> {
         Ok(Settings {
@@ -303,6 +311,7 @@ fn run_named(
             seeded_sites: options.sites == Sites::Seeded,
             wrist_light: options.wrist_light == OnOff::On,
             keep_failed: options.keep_failed,
+            pictures: !options.no_pictures,
             out: OutputDir::create(out)?,
             mode: mode.clone(),
             arguments: serde_json::to_string(options)?,

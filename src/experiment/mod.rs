@@ -84,6 +84,8 @@ pub struct Settings {
     /// `--keep-failed`: the task experiments keep the recordings of the runs that did not
     /// succeed.
     pub keep_failed: bool,
+    /// `matchers`: draw the match pictures (`--no-pictures` leaves them out).
+    pub pictures: bool,
     /// The output folder (created).
     pub out: OutputDir,
     /// All items, one shard of them, or the records of merged shards ([`shard`]).

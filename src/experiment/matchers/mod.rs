@@ -334,7 +334,7 @@ pub fn run(settings: &Settings) -> Result<()> {
                         picture_png: None,
                     },
                     Ok(((s, flags), o)) => {
-                        let picture_png = if first_of_set[i] {
+                        let picture_png = if first_of_set[i] && settings.pictures {
                             let path = settings.out.image(&format!("{set}_{name}.png"));
                             draw(pair, &o, &flags, &path)?;
                             Some(
