@@ -204,13 +204,16 @@ set -- $commits
     python3 - "$out" "${names[@]}" <<'PY'
 import json, sys
 out, names = sys.argv[1], sys.argv[2:]
-behind, compared = [], 0
+behind, compared, missing = [], 0, []
 for name in names:
     try:
         with open(f"{out}/{name}/results.json") as f:
             comparisons = json.load(f)["sections"].get("comparisons", [])
-    except (OSError, ValueError, KeyError) as e:
-        behind.append(f"- **{name}**: no results ({e})")
+    except OSError:
+        missing.append(name)
+        continue
+    except (ValueError, KeyError) as e:
+        behind.append(f"- **{name}**: unreadable results ({e})")
         continue
     compared += len(comparisons)
     for c in comparisons:
@@ -222,6 +225,9 @@ if behind:
     print("\n".join(behind))
 else:
     print(f"None: rodlog is level with or ahead of the paper and its peers on all {compared} compared figures.")
+if missing:
+    print()
+    print(f"**Not compared: {', '.join(missing)} (not run yet).**")
 PY
     echo
     echo "| experiment | options | commit | date | wall (s) |"
