@@ -199,7 +199,11 @@ fn ablation_smoke_run_goes_from_the_paper_to_ours() {
         .map(|v| v["variant"].as_str().expect("name"))
         .collect();
     assert_eq!(names.first(), Some(&"paper"), "{names:?}");
-    assert!(names.iter().any(|n| n.ends_with("(= ours)")), "{names:?}");
+    // Ours' keypoint selection is a row of its own, the last before paper+ba: the step
+    // above it (the eq. 15 switch) keeps the paper's quadtree.
+    let ours = names.len() - 2;
+    assert_eq!(names[ours], "+ retain-best (= ours)", "{names:?}");
+    assert!(names[ours - 1].starts_with("- eq15"), "{names:?}");
     assert_eq!(names.last(), Some(&"paper+ba"), "{names:?}");
     for v in variants {
         assert_eq!(v["trials"], 2, "{v}");

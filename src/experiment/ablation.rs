@@ -11,7 +11,8 @@
 //! # Variants ([`variants`])
 //! The paper's method ([`SelfCalMethod::Paper`]), then one step of
 //! [`calib::selfcal::STEP_NAMES`] at a time switched to what ours does, in the order the
-//! pipeline runs them, so the last row is ours ([`SelfCalMethod::Ours`]); and `paper+ba`,
+//! pipeline runs them, then ours' ORB keypoint selection where it differs from the paper's
+//! (retain-best), so the last row is ours ([`SelfCalMethod::Ours`]); and `paper+ba`,
 //! the paper's method with eq. 15 as a bundle adjustment. Errors against the true mount;
 //! each variant's refusals and success rate (Wilson 95%), its errors over its own answers,
 //! and every variant's errors over the trials where every variant answered.
@@ -69,9 +70,18 @@ pub fn variants(ctx: &SimContext) -> Result<Vec<Variant>> {
             params: current.clone(),
         });
     }
-    // The last row is ours, keypoint settings included.
+    // Ours' keypoint settings, a row of their own where they differ from the paper's (the
+    // ORB keypoint selection); the last row is ours.
     let mut ours_params = ctx.ours.clone();
     ours_params.steps = ours;
+    if ours_params.orb != current.orb {
+        let selection = ours_params.orb.distribution.name();
+        out.push(Variant {
+            name: format!("+ {selection}"),
+            change: format!("ORB keypoints by {selection}"),
+            params: ours_params.clone(),
+        });
+    }
     if let Some(last) = out.last_mut() {
         last.params = ours_params;
         last.name = format!("{} (= ours)", last.name);
