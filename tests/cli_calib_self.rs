@@ -86,29 +86,29 @@ fn self_calibration_on_clean_calib18_recovers_the_true_mount() {
     let inverted = (est.inverse().translation.vector - truth.translation.vector).norm() * 1e3;
     assert!(inverted > 10.0, "the inverse would pass too");
 
-    // OpenCV's keypoint selection instead of the quadtree: as good here, and really used
-    // (a different estimate from the same views).
-    let rb = rodlog(&[
+    // The paper's keypoint selection (the quadtree) instead of ours (retain-best): as good
+    // here, and really used (a different estimate from the same views).
+    let qt = rodlog(&[
         "calib",
         "self",
         &rec_s,
         "--json",
         "--distribution",
-        "retain-best",
+        "quadtree",
     ]);
     assert!(
-        rb.status.success(),
+        qt.status.success(),
         "{}",
-        String::from_utf8_lossy(&rb.stderr)
+        String::from_utf8_lossy(&qt.stderr)
     );
-    let rb_est = estimate(&serde_json::from_slice(&rb.stdout).expect("JSON"));
-    let (rb_rot_deg, rb_t_m) = calib::handeye::pose_error(&truth, &rb_est);
+    let qt_est = estimate(&serde_json::from_slice(&qt.stdout).expect("JSON"));
+    let (qt_rot_deg, qt_t_m) = calib::handeye::pose_error(&truth, &qt_est);
     assert!(
-        rb_rot_deg < 0.05 && rb_t_m < 0.5e-3,
-        "retain-best: {rb_rot_deg} deg, {} mm",
-        rb_t_m * 1e3
+        qt_rot_deg < 0.05 && qt_t_m < 0.5e-3,
+        "quadtree: {qt_rot_deg} deg, {} mm",
+        qt_t_m * 1e3
     );
-    let (d_rot, d_t) = calib::handeye::pose_error(&est, &rb_est);
+    let (d_rot, d_t) = calib::handeye::pose_error(&est, &qt_est);
     assert!(d_rot > 1e-6 || d_t > 1e-9, "--distribution changed nothing");
 
     // The paper's method as written (Umeyama pair motions, Kronecker/SVD, LM on eq. 15 over
