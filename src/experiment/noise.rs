@@ -513,9 +513,10 @@ pub fn run_trials(
                 let outcomes = (0..conditions)
                     .map(|c| {
                         let (n, sigma, noise_seed) = condition(seed, c);
-                        let outcomes = run_methods(ctx, &trial, n, sigma, noise_seed)?;
+                        // The noisy views once, for our methods and the peer alike.
+                        let views = calib_views(ctx, &trial, n, sigma, noise_seed, true)?;
+                        let outcomes = methods_on_views(ctx, &trial, &views);
                         if let Some(peer) = peer {
-                            let views = calib_views(ctx, &trial, n, sigma, noise_seed, true)?;
                             let tag = format!("{seed:016x}-{c}");
                             peer_outcomes.push(Some(peer.run(
                                 &views,
@@ -552,6 +553,12 @@ pub fn run_methods(
     noise_seed: u64,
 ) -> Result<MethodOutcomes> {
     let rgbd = calib_views(ctx, trial, n, sigma, noise_seed, true)?;
+    Ok(methods_on_views(ctx, trial, &rgbd))
+}
+
+/// The methods of [`run_methods`] on `rgbd`, views of `trial` with depth (the monocular
+/// methods drop it).
+pub fn methods_on_views(ctx: &SimContext, trial: &SimTrial, rgbd: &[CalibView]) -> MethodOutcomes {
     let mono: Vec<CalibView> = rgbd
         .iter()
         .map(|v| CalibView {
@@ -564,10 +571,10 @@ pub fn run_methods(
     let score = |x: &Isometry3<f64>| PoseErrors::of(x, &trial.true_mount);
     let scored =
         |s: &calib::handeye::HandEyeSolution| PoseErrors::of_solution(s, &trial.true_mount);
-    let paper = self_calibrate(&rgbd, cam, &ctx.paper)
+    let paper = self_calibrate(rgbd, cam, &ctx.paper)
         .map(|r| scored(&r.solution))
         .map_err(|e| e.to_string());
-    let a = self_calibrate(&rgbd, cam, ours)
+    let a = self_calibrate(rgbd, cam, ours)
         .map(|r| scored(&r.solution))
         .map_err(|e| e.to_string());
     let mono_result = self_calibrate(&mono, cam, ours);
@@ -587,13 +594,13 @@ pub fn run_methods(
     let c = calibrate_zhi(&mono, cam, &ZhiParams::for_camera(cam))
         .map(|r| scored(&r.solution))
         .map_err(|e| e.to_string());
-    Ok(vec![
+    vec![
         ("paper".to_owned(), paper),
         ("ours-rgbd".to_owned(), a),
         ("ours-mono".to_owned(), b),
         ("ours-mono-unchecked".to_owned(), b_unchecked),
         ("zhi".to_owned(), c),
-    ])
+    ]
 }
 
 /// Books one condition's outcomes: every attempt and refusal into `refusals`, the errors of
