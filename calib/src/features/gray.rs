@@ -437,9 +437,9 @@ fn gaussian_blur7_rows(src: &GrayView<'_>, dst: &mut GrayBuf, scratch: &mut Blur
             continue;
         };
         let [g0, g1, g2, g3, ..] = GAUSS7;
-        // Written out in the loop, not as a closure (a closure is not compiled with the
-        // dispatched function's target features, and was called once per pixel), in
-        // wrapping arithmetic: the sums fit in u16 (the weights sum to 256, so at most
+        // Written out in the loop: a closure over the seven rows was not inlined, so it ran
+        // once per pixel without the dispatched function's target features. Wrapping
+        // arithmetic: the sums fit in u16 (the weights sum to 256, so at most
         // 255 * 256 + 128), and overflow checks, on in test builds, stop the loop from
         // vectorising.
         let w16 = Wrapping;
@@ -490,7 +490,7 @@ mod tests {
     }
 
     /// The vectorised blur equals the formula of its docs evaluated pixel by pixel in u32
-    /// (so no u16 sum can have wrapped), on a pattern with saturated and dark patches.
+    /// (so no u16 sum can have wrapped), on a pattern with a saturated patch.
     #[test]
     fn blur_equals_the_separable_formula() {
         let (w, h) = (37usize, 23usize);
