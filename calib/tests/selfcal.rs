@@ -367,7 +367,18 @@ fn pair_motion_flags_as_inliers_only_matches_consistent_with_the_motion() {
     let bad = m.coords.len() - good;
     assert!(good > 100 && bad > 20, "{good} good, {bad} bad matches");
     let params = SelfCalParams::default();
-    let rgbd = rgbd_motion(&views[0], &views[1], &cam, &m, &params, 1).expect("3D-3D motion");
+    // Every synthetic keypoint has depth support (the scene is one textured surface).
+    let support = vec![true; m.coords.len()];
+    let rgbd = rgbd_motion(
+        &views[0],
+        &views[1],
+        &cam,
+        &m,
+        &params,
+        1,
+        [&support, &support],
+    )
+    .expect("3D-3D motion");
     let mono = mono_motion(&cam, &m, &params, 1, None).expect("essential motion");
     for (name, est) in [("rgbd", &rgbd), ("mono", &mono)] {
         let flags = &est.match_inliers;

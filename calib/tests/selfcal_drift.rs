@@ -117,12 +117,21 @@ fn drift_check_x_rotated_half_a_degree_is_drifted() {
         let x = rotated(&sup::true_x(), axis, 0.5);
         let r = check_drift(&views, &cam, &x, &DriftParams::default());
         eprintln!("rotated 0.5 deg about {axis:?}: {}", describe(&r));
+        // The bump's size and the estimate itself agree with the truth within three of the
+        // check's own 1-sigma (the total over the three axes: about 0.05 deg and 0.6 mm).
         let (rotation_deg, _) = drifted(&r);
-        assert!((rotation_deg - 0.5).abs() < 0.1, "{}", describe(&r));
-        // The estimate points back to the true mount.
-        let e = r.estimate.expect("estimate");
+        let e = r.estimate.clone().expect("estimate");
+        assert!(
+            (rotation_deg - 0.5).abs() < 3.0 * e.sigma_rot_deg,
+            "{}",
+            describe(&r)
+        );
         let (deg, m) = calib::handeye::pose_error(&e.tool0_from_camera, &sup::true_x());
-        assert!(deg < 0.1 && m < 1e-3, "{deg} deg {m} m");
+        assert!(
+            deg < 3.0 * e.sigma_rot_deg && m * 1e3 < 3.0 * e.sigma_trans_mm,
+            "{deg} deg {m} m; {}",
+            describe(&r)
+        );
     }
 }
 
@@ -139,7 +148,12 @@ fn drift_check_x_shifted_3_mm_is_drifted() {
         let r = check_drift(&views, &cam, &x, &DriftParams::default());
         eprintln!("shifted 3 mm along {dir:?}: {}", describe(&r));
         let (_, translation_mm) = drifted(&r);
-        assert!((translation_mm - 3.0).abs() < 1.0, "{}", describe(&r));
+        let sigma_mm = r.estimate.as_ref().map_or(0.0, |e| e.sigma_trans_mm);
+        assert!(
+            (translation_mm - 3.0).abs() < 3.0 * sigma_mm,
+            "{}",
+            describe(&r)
+        );
     }
 }
 
@@ -356,7 +370,7 @@ fn drift_check_mono_statistics_with_the_priors() {
     assert_eq!(false_alarms, 0);
     assert_eq!(detected, trials);
     // Held near the prior (20 mm per axis) where the views are blind; without it the same
-    // views put an unmoved mount 440-460 mm away, beyond its threshold (a false alarm).
+    // views put an unmoved mount 440-460 mm away (below).
     assert!(
         worst_unmoved_mm < 2.5 * params.change_prior_trans_mm,
         "{worst_unmoved_mm:.1} mm"
@@ -369,8 +383,13 @@ fn drift_check_mono_statistics_with_the_priors() {
     let (views, cam) = check_views(&CHECK_MOTION, false, 40);
     let r = check_drift(&views, &cam, &sup::true_x(), &blind);
     eprintln!("mono without the change prior: {}", describe(&r));
+    // Blind, the same views put the unmoved mount hundreds of millimetres away: a false alarm
+    // or, where the check sees how little the views constrain, no verdict; never "consistent".
     assert!(
-        matches!(r.verdict, DriftVerdict::Drifted { translation_mm, .. } if translation_mm > 100.0),
+        r.verdict != DriftVerdict::Consistent
+            && r.estimate
+                .as_ref()
+                .is_some_and(|e| e.translation_mm > 100.0),
         "{}",
         describe(&r)
     );

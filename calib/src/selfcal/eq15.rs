@@ -175,14 +175,16 @@ pub struct Eq15Problem {
 
 impl Eq15Problem {
     /// The problem of `tracks` over `views`: rays from the undistorted keypoints, depth points
-    /// from the registered depth ([`CalibView::depth_at`] away from depth steps), keypoint
-    /// sigmas `scale_factor^level` pixels. Features with fewer than two rays or no depth
-    /// point are left out.
+    /// from the registered depth ([`CalibView::depth_at`], only for keypoints with depth
+    /// support, `depth_support[view][keypoint]`, [`super::motion::keypoint_depth_support`]),
+    /// keypoint sigmas `scale_factor^level` pixels. Features with fewer than two rays or no
+    /// depth point are left out.
     pub fn from_tracks(
         views: &[CalibView],
         camera: &CameraModel,
         tracks: &[Track],
         scale_factor: f64,
+        depth_support: &[Vec<bool>],
     ) -> Self {
         let f = 0.5 * (camera.fx + camera.fy);
         let mut features = Vec::with_capacity(tracks.len());
@@ -197,8 +199,14 @@ impl Eq15Problem {
                     continue;
                 };
                 let ray = Vector3::new(x.x, x.y, 1.0).normalize();
-                let p_in_camera = view
-                    .depth_at(o.px[0], o.px[1], MAX_DEPTH_STEP)
+                let supported = depth_support
+                    .get(o.view)
+                    .and_then(|s| s.get(o.keypoint as usize))
+                    .copied()
+                    .unwrap_or(false);
+                let p_in_camera = supported
+                    .then(|| view.depth_at(o.px[0], o.px[1], MAX_DEPTH_STEP))
+                    .flatten()
                     .and_then(|z| camera.backproject(&px, z).ok());
                 obs.push(Eq15Observation {
                     view: o.view,

@@ -149,6 +149,10 @@ impl FinalRefinement {
 /// [`Steps::ours`]; every field of ours that the paper lacks switches one addition.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Steps {
+    /// RGB-D: a keypoint has depth only where the depth over its support is one surface
+    /// ([`super::motion::keypoint_depth_support`]); keypoints on occluding contours are no
+    /// fixed 3D points. Off: every keypoint with depth at its pixel.
+    pub depth_support: bool,
     /// RGB-D pair motion by 3D-3D RANSAC (3-point samples) and Umeyama on its inliers
     /// ([`crate::relpose::estimate_rigid_ransac`]; on in the paper's method, see the module
     /// docs). Off: Umeyama over every GMS match with depth in both views.
@@ -187,6 +191,7 @@ impl Steps {
     /// The paper's method (module docs).
     pub fn paper() -> Self {
         Self {
+            depth_support: false,
             rigid_ransac: true,
             depth_weighted_motion: false,
             image_motion: false,
@@ -204,6 +209,7 @@ impl Steps {
     /// the more accurate, see [`super::eq15`]).
     pub fn ours() -> Self {
         Self {
+            depth_support: true,
             rigid_ransac: true,
             depth_weighted_motion: true,
             image_motion: false,
@@ -219,7 +225,8 @@ impl Steps {
 }
 
 /// The names of the switchable steps (`--with NAME`, `--without NAME`), in pipeline order.
-pub const STEP_NAMES: [&str; 10] = [
+pub const STEP_NAMES: [&str; 11] = [
+    "depth-support",
     "rigid-ransac",
     "depth-weighted-motion",
     "image-motion",
@@ -248,6 +255,7 @@ impl Steps {
     /// [`UnknownStep`] for a name not in [`STEP_NAMES`].
     pub fn set(&mut self, name: &str, on: bool) -> Result<(), UnknownStep> {
         let flag = match name {
+            "depth-support" => &mut self.depth_support,
             "rigid-ransac" => &mut self.rigid_ransac,
             "depth-weighted-motion" => &mut self.depth_weighted_motion,
             "image-motion" => &mut self.image_motion,
@@ -284,6 +292,7 @@ impl Steps {
     /// [`UnknownStep`] for a name not in [`STEP_NAMES`].
     pub fn is_on(&self, name: &str) -> Result<bool, UnknownStep> {
         Ok(match name {
+            "depth-support" => self.depth_support,
             "rigid-ransac" => self.rigid_ransac,
             "depth-weighted-motion" => self.depth_weighted_motion,
             "image-motion" => self.image_motion,

@@ -12,7 +12,7 @@ use rayon::prelude::*;
 
 use super::views::{CalibView, intensity_stats};
 use super::{SelfCalError, SelfCalParams};
-use crate::features::{Features, GrayView, Keypoint, OrbExtractor, gms_filter, match_brute_force};
+use crate::features::{Features, GrayView, OrbExtractor, gms_filter, match_brute_force};
 
 /// Why a view pair was not used.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -138,16 +138,6 @@ pub struct PairMatches {
     pub motion_inliers: Vec<bool>,
 }
 
-/// The full-resolution position of a keypoint. ORB reports `x_level * s^level` (as OpenCV),
-/// but the pyramid is resampled pixel-centre aligned (`u = (x + 0.5) s - 0.5`,
-/// [`crate::features::gray::resize_bilinear`]), so the pixel `x_level` of level `l` is centred
-/// at `(x_level + 0.5) s^l - 0.5` in the full image: a shift of `0.5 (s^l - 1)` pixels (1.3 px
-/// at level 7), which would bias the back-projected points of coarse-level keypoints.
-pub fn full_res_position(k: &Keypoint, scale_factor: f32) -> (f32, f32) {
-    let shift = 0.5 * (scale_factor.powi(i32::from(k.level)) - 1.0);
-    (k.x + shift, k.y + shift)
-}
-
 /// `B_ij = tool_i_from_tool_j = B_i^-1 B_j`.
 pub fn hand_motion(views: &[CalibView], i: usize, j: usize) -> Option<Isometry3<f64>> {
     Some(views.get(i)?.base_from_tool0.inverse() * views.get(j)?.base_from_tool0)
@@ -246,7 +236,7 @@ pub fn match_pair(
             motion_inliers: Vec::new(),
         };
     };
-    let scale_factor = params.orb.scale_factor;
+    let (width, height) = (size.0 as u32, size.1 as u32);
     let mut mp = params.matching;
     mp.parallel = false; // pairs already run in parallel
     let matches = match_brute_force(&fa.descriptors, &fb.descriptors, &mp);
@@ -268,8 +258,8 @@ pub fn match_pair(
         ) else {
             continue;
         };
-        let (ax, ay) = full_res_position(a, scale_factor);
-        let (bx, by) = full_res_position(b, scale_factor);
+        let (ax, ay) = params.orb.full_res_position(a, width, height);
+        let (bx, by) = params.orb.full_res_position(b, width, height);
         coords.push([ax, ay, bx, by]);
         levels.push([a.level, b.level]);
         keypoints.push([m.query, m.train]);

@@ -11,7 +11,7 @@ use rayon::prelude::*;
 use super::epipolar::{EpipolarPair, EpipolarParams, refine_epipolar};
 use super::eq15::{Eq15Params, Eq15Report};
 use super::method::{FinalRefinement, SelfCalMethod, Steps};
-use super::motion::{PairMotion, mono_motion, pair_seed, rgbd_motion};
+use super::motion::{PairMotion, keypoint_depth_support, mono_motion, pair_seed, rgbd_motion};
 use super::pairs::{
     PairMatches, PairRejection, Refused, candidate_pairs, extract_features, hand_motion, match_pair,
 };
@@ -286,6 +286,10 @@ pub struct PairMotions {
     pub mode: Mode,
     /// ORB keypoints per view.
     pub features_per_view: Vec<usize>,
+    /// RGB-D: per view, per keypoint, whether its depth may be used
+    /// ([`super::motion::keypoint_depth_support`]; all with [`super::Steps::depth_support`]
+    /// off); empty lists in mono.
+    pub depth_support: Vec<Vec<bool>>,
     /// GMS matches of the candidate pairs (hand rotation at least
     /// [`SelfCalParams::min_pair_rotation_deg`]), in `(i, j)` order; `motion_inliers` not yet
     /// filled in.
@@ -309,6 +313,18 @@ pub fn pair_motions(
 ) -> Result<PairMotions, SelfCalError> {
     let mode = validate_views(views, camera)?;
     let features = extract_features(views, params)?;
+    let depth_support: Vec<Vec<bool>> = match mode {
+        Mode::Rgbd if params.steps.depth_support => views
+            .par_iter()
+            .zip(&features)
+            .map(|(v, f)| keypoint_depth_support(v, f, &params.orb))
+            .collect(),
+        Mode::Rgbd => features
+            .iter()
+            .map(|f| vec![true; f.keypoints.len()])
+            .collect(),
+        Mode::Mono => vec![Vec::new(); views.len()],
+    };
     let size = (camera.width as usize, camera.height as usize);
     let (cands, small) = candidate_pairs(views, params.min_pair_rotation_deg);
     let matches: Vec<PairMatches> = cands
@@ -327,7 +343,19 @@ pub fn pair_motions(
             let seed = pair_seed(params.seed, m.i, m.j);
             match mode {
                 Mode::Rgbd => match (views.get(m.i), views.get(m.j)) {
-                    (Some(vi), Some(vj)) => rgbd_motion(vi, vj, camera, m, params, seed),
+                    (Some(vi), Some(vj)) => {
+                        let support =
+                            |k: usize| depth_support.get(k).map_or(&[][..], Vec::as_slice);
+                        rgbd_motion(
+                            vi,
+                            vj,
+                            camera,
+                            m,
+                            params,
+                            seed,
+                            [support(m.i), support(m.j)],
+                        )
+                    }
                     _ => Err(PairRejection::TooFewMatches {
                         matches: 0,
                         need: params.min_matches,
@@ -340,6 +368,7 @@ pub fn pair_motions(
     Ok(PairMotions {
         mode,
         features_per_view: features.iter().map(|f| f.keypoints.len()).collect(),
+        depth_support,
         matches,
         estimates,
         small,
@@ -590,6 +619,7 @@ fn solve_pair_motions(
     let PairMotions {
         mode,
         features_per_view,
+        depth_support,
         mut matches,
         estimates,
         small,
@@ -678,6 +708,7 @@ fn solve_pair_motions(
                 camera,
                 matches: &matches,
                 keypoints_per_view: &features_per_view,
+                depth_support: &depth_support,
             };
             solve_rgbd(&mut reports, &motions, &inputs, &opts, params)?
         }

@@ -92,6 +92,8 @@ pub(crate) struct TrackInputs<'a> {
     pub camera: &'a CameraModel,
     pub matches: &'a [PairMatches],
     pub keypoints_per_view: &'a [usize],
+    /// Per view, per keypoint: whether its depth may be used.
+    pub depth_support: &'a [Vec<bool>],
 }
 
 /// RGB-D: the linear (Kronecker) X over the used pairs, the pose solve of `opts` (with pair
@@ -150,6 +152,7 @@ pub(crate) fn solve_rgbd(
         inputs.camera,
         &tracks.tracks,
         f64::from(params.orb.scale_factor),
+        inputs.depth_support,
     );
     let rep = match refine {
         FinalRefinement::BundleAdjustment => {

@@ -834,10 +834,8 @@ impl CalibrationStage {
             out.push(Self::log(Log::ERROR, log_time, text.clone()));
             return (TaskEvent::REFUSED, "cannot_tell", text);
         };
-        let mut selfcal = self.selfcal_params(&camera);
-        selfcal.orb.distribution = super::drift::DRIFT_KEYPOINT_DISTRIBUTION;
         let mut params = DriftParams {
-            selfcal,
+            selfcal: super::drift::drift_front_end(self.selfcal_params(&camera)),
             ..DriftParams::default()
         };
         let x_source = match &self.x_covariance {

@@ -22,6 +22,55 @@ pub struct CalibView {
 }
 
 impl CalibView {
+    /// Whether the depth around pixel `(x, y)` is one continuous surface: the pixel itself
+    /// has depth, and along every row and every column of the square of half side
+    /// `radius_px` about it no two successive pixels with depth differ by more than
+    /// `max_rel_step` (relative). Pixels without depth are skipped, not counted as a step:
+    /// sun wash-out and dark surfaces make holes inside a surface, while a contour's gap (the
+    /// flying pixels the sensor drops, a projector shadow) still separates two depths that
+    /// differ. `false` without depth.
+    ///
+    /// A keypoint whose support reaches across a depth discontinuity (an occluding contour)
+    /// is not the image of one 3D point: where the contour cuts the background it moves with
+    /// the viewpoint (a T-junction), and its depth belongs to whichever surface its pixel
+    /// happens to fall on. Successive steps, not the window's range, are tested so that a
+    /// steeply slanted surface still passes (at 0.45 m, 2 % between neighbours is a 9 mm
+    /// step over a 0.26 mm pixel).
+    pub fn depth_support(&self, x: f32, y: f32, radius_px: usize, max_rel_step: f32) -> bool {
+        let Some(depth) = self.depth_m.as_ref() else {
+            return false;
+        };
+        let (w, h) = (self.gray.width() as usize, self.gray.height() as usize);
+        if !(x.is_finite() && y.is_finite()) {
+            return false;
+        }
+        let (cu, cv) = (x.round(), y.round());
+        let r = radius_px as f32;
+        if cu < r || cv < r || cu + r >= w as f32 || cv + r >= h as f32 {
+            return false;
+        }
+        let (cu, cv) = (cu as usize, cv as usize);
+        let valid = |d: f32| d.is_finite() && d > 0.0;
+        if !depth.get(cv * w + cu).is_some_and(|&d| valid(d)) {
+            return false;
+        }
+        let (u0, v0, side) = (cu - radius_px, cv - radius_px, 2 * radius_px + 1);
+        // One surface along a run of pixels: successive depths (holes skipped) within the step.
+        let continuous = |run: &mut dyn Iterator<Item = f32>| {
+            let mut last: Option<f32> = None;
+            for d in run.filter(|&d| valid(d)) {
+                if last.is_some_and(|l| (d - l).abs() > max_rel_step * d.min(l)) {
+                    return false;
+                }
+                last = Some(d);
+            }
+            true
+        };
+        let at = |u: usize, v: usize| depth.get(v * w + u).copied().unwrap_or(f32::NAN);
+        (v0..v0 + side).all(|v| continuous(&mut (u0..u0 + side).map(|u| at(u, v))))
+            && (u0..u0 + side).all(|u| continuous(&mut (v0..v0 + side).map(|v| at(u, v))))
+    }
+
     /// Depth (metres) at the sub-pixel position `(x, y)`, bilinear over the four
     /// surrounding pixels when all are valid and agree within `max_rel_step` (relative):
     /// points on depth discontinuities (where registration mixes surfaces) are skipped.
@@ -144,4 +193,72 @@ pub fn intensity_stats(img: &GrayImage) -> (f64, f64) {
     }
     let mean = s / n;
     (mean, (s2 / n - mean * mean).max(0.0).sqrt())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 40 x 30 view whose depth is `depth(u, v)`.
+    fn view(depth: impl Fn(usize, usize) -> f32) -> CalibView {
+        let (w, h) = (40_usize, 30_usize);
+        CalibView {
+            stamp_ns: 0,
+            gray: GrayImage::new(w as u32, h as u32),
+            depth_m: Some((0..w * h).map(|i| depth(i % w, i / w)).collect()),
+            base_from_tool0: Isometry3::identity(),
+        }
+    }
+
+    #[test]
+    fn depth_support_passes_slants_and_holes_and_stops_at_a_contour() {
+        // 0.45 m, rising 1 mm per pixel to the right (a surface at about 75 deg).
+        let slanted = view(|u, _| 0.45 + 0.001 * u as f32);
+        assert!(slanted.depth_support(20.0, 15.0, 6, 0.02));
+        // An occluding contour at u = 25: the background 0.3 m behind.
+        let step = view(|u, _| if u < 25 { 0.45 } else { 0.75 });
+        assert!(
+            step.depth_support(17.4, 15.0, 6, 0.02),
+            "7.6 px from the contour"
+        );
+        assert!(
+            !step.depth_support(19.6, 15.0, 6, 0.02),
+            "the window reaches u = 26"
+        );
+        assert!(
+            !step.depth_support(30.0, 15.0, 6, 0.02),
+            "the window reaches u = 24"
+        );
+        // The same contour with a 3 px gap without depth (flying pixels, a projector shadow).
+        let gap = view(|u, _| match u {
+            0..25 => 0.45,
+            25..28 => f32::NAN,
+            _ => 0.75,
+        });
+        assert!(gap.depth_support(17.4, 15.0, 6, 0.02));
+        assert!(
+            !gap.depth_support(22.0, 15.0, 6, 0.02),
+            "across the gap to u = 28"
+        );
+        assert!(
+            !gap.depth_support(26.0, 15.0, 6, 0.02),
+            "no depth at the keypoint"
+        );
+        // Holes inside one surface (wash-out) are no contour.
+        let holes = view(|u, v| if (u + 2 * v) % 5 == 0 { 0.0 } else { 0.45 });
+        assert!(holes.depth_support(21.0, 15.0, 6, 0.02));
+        // A contour along a row (a horizontal edge) is caught by the columns.
+        let ledge = view(|_, v| if v < 18 { 0.45 } else { 0.6 });
+        assert!(!ledge.depth_support(20.0, 14.0, 6, 0.02));
+        assert!(ledge.depth_support(20.0, 11.0, 6, 0.02));
+        // Windows leaving the image, non-finite positions, no depth at all.
+        assert!(!slanted.depth_support(3.0, 15.0, 6, 0.02));
+        assert!(!slanted.depth_support(20.0, 25.0, 6, 0.02));
+        assert!(!slanted.depth_support(f32::NAN, 15.0, 6, 0.02));
+        let mono = CalibView {
+            depth_m: None,
+            ..slanted
+        };
+        assert!(!mono.depth_support(20.0, 15.0, 6, 0.02));
+    }
 }

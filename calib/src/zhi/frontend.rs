@@ -13,7 +13,6 @@ use crate::features::{
     Descriptor, GrayView, MatchParams, OrbExtractor, OrbParams, match_brute_force,
 };
 use crate::selfcal::CalibView;
-use crate::selfcal::pairs::full_res_position;
 
 /// Which detector/descriptor the front end uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -67,8 +66,8 @@ fn detect(gray: &image::GrayImage, params: &ZhiParams) -> Result<ViewFeatures, Z
                 n_features: params.n_features,
                 ..OrbParams::default()
             };
-            let scale = orb.scale_factor;
-            let mut ex = OrbExtractor::new(orb).map_err(|e| ZhiError::Features(e.to_string()))?;
+            let mut ex =
+                OrbExtractor::new(orb.clone()).map_err(|e| ZhiError::Features(e.to_string()))?;
             let mut f = crate::features::Features::default();
             ex.detect_and_describe(&GrayView::from_image(gray), &mut f)
                 .map_err(|e| ZhiError::Features(e.to_string()))?;
@@ -76,7 +75,7 @@ fn detect(gray: &image::GrayImage, params: &ZhiParams) -> Result<ViewFeatures, Z
                 .keypoints
                 .iter()
                 .map(|k| {
-                    let (x, y) = full_res_position(k, scale);
+                    let (x, y) = orb.full_res_position(k, gray.width(), gray.height());
                     [x, y]
                 })
                 .collect();
