@@ -124,20 +124,19 @@ pub fn measure_matches(
     matches: &PairMatches,
     support: [&[bool]; 2],
 ) -> Vec<Option<MatchMeasurement>> {
-    let supported = |s: &[bool], k: u32| s.get(k as usize).copied().unwrap_or(false);
+    // A match without keypoint indices (never from `match_pair`) has no depth.
+    let supported = |view: usize, k: usize| {
+        let index = matches.keypoints.get(k).map(|kp| kp[view] as usize);
+        index
+            .and_then(|i| support[view].get(i))
+            .copied()
+            .unwrap_or(false)
+    };
     matches
         .coords
         .iter()
-        .zip(matches.levels.iter().chain(std::iter::repeat(&[0u8, 0u8])))
-        .zip(
-            matches
-                .keypoints
-                .iter()
-                .map(Some)
-                .chain(std::iter::repeat(None)),
-        )
-        .map(|((c, l), kp)| {
-            let [ki, kj] = kp.copied().unwrap_or([u32::MAX; 2]);
+        .enumerate()
+        .map(|(k, c)| {
             let x_i = camera
                 .undistort_pixel(&Point2::new(f64::from(c[0]), f64::from(c[1])))
                 .ok()?;
@@ -147,13 +146,13 @@ pub fn measure_matches(
             Some(MatchMeasurement {
                 x_i,
                 x_j,
-                z_i: supported(support[0], ki)
+                z_i: supported(0, k)
                     .then(|| view_i.depth_at(c[0], c[1], MAX_DEPTH_STEP))
                     .flatten(),
-                z_j: supported(support[1], kj)
+                z_j: supported(1, k)
                     .then(|| view_j.depth_at(c[2], c[3], MAX_DEPTH_STEP))
                     .flatten(),
-                levels: *l,
+                levels: matches.levels.get(k).copied().unwrap_or([0, 0]),
             })
         })
         .collect()

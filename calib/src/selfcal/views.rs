@@ -50,25 +50,13 @@ impl CalibView {
             return false;
         }
         let (cu, cv) = (cu as usize, cv as usize);
-        let valid = |d: f32| d.is_finite() && d > 0.0;
-        if !depth.get(cv * w + cu).is_some_and(|&d| valid(d)) {
+        if !depth.get(cv * w + cu).copied().is_some_and(has_depth) {
             return false;
         }
         let (u0, v0, side) = (cu - radius_px, cv - radius_px, 2 * radius_px + 1);
-        // One surface along a run of pixels: successive depths (holes skipped) within the step.
-        let continuous = |run: &mut dyn Iterator<Item = f32>| {
-            let mut last: Option<f32> = None;
-            for d in run.filter(|&d| valid(d)) {
-                if last.is_some_and(|l| (d - l).abs() > max_rel_step * d.min(l)) {
-                    return false;
-                }
-                last = Some(d);
-            }
-            true
-        };
         let at = |u: usize, v: usize| depth.get(v * w + u).copied().unwrap_or(f32::NAN);
-        (v0..v0 + side).all(|v| continuous(&mut (u0..u0 + side).map(|u| at(u, v))))
-            && (u0..u0 + side).all(|u| continuous(&mut (v0..v0 + side).map(|v| at(u, v))))
+        (v0..v0 + side).all(|v| one_surface((u0..u0 + side).map(|u| at(u, v)), max_rel_step))
+            && (u0..u0 + side).all(|u| one_surface((v0..v0 + side).map(|v| at(u, v)), max_rel_step))
     }
 
     /// Depth (metres) at the sub-pixel position `(x, y)`, bilinear over the four
@@ -91,7 +79,7 @@ impl CalibView {
             at(u0, v0 + 1)?,
             at(u0 + 1, v0 + 1)?,
         ];
-        if z.iter().any(|d| !(d.is_finite() && *d > 0.0)) {
+        if !z.iter().copied().all(has_depth) {
             return None;
         }
         let (lo, hi) = z
@@ -104,6 +92,24 @@ impl CalibView {
         let z = z.map(f64::from);
         Some((1.0 - fy) * ((1.0 - fx) * z[0] + fx * z[1]) + fy * ((1.0 - fx) * z[2] + fx * z[3]))
     }
+}
+
+/// Whether a depth sample is a measurement (0 or non-finite = no data).
+fn has_depth(d: f32) -> bool {
+    d.is_finite() && d > 0.0
+}
+
+/// One surface along a run of depths: successive measured depths (holes skipped) differ by
+/// at most `max_rel_step` (relative).
+fn one_surface(run: impl Iterator<Item = f32>, max_rel_step: f32) -> bool {
+    let mut last: Option<f32> = None;
+    for d in run.filter(|&d| has_depth(d)) {
+        if last.is_some_and(|l| (d - l).abs() > max_rel_step * d.min(l)) {
+            return false;
+        }
+        last = Some(d);
+    }
+    true
 }
 
 /// Checks the views against the camera and decides the mode: [`Mode::Rgbd`] when every view
@@ -214,43 +220,33 @@ mod tests {
     fn depth_support_passes_slants_and_holes_and_stops_at_a_contour() {
         // 0.45 m, rising 1 mm per pixel to the right (a surface at about 75 deg).
         let slanted = view(|u, _| 0.45 + 0.001 * u as f32);
-        assert!(slanted.depth_support(20.0, 15.0, 6, 0.02));
         // An occluding contour at u = 25: the background 0.3 m behind.
         let step = view(|u, _| if u < 25 { 0.45 } else { 0.75 });
-        assert!(
-            step.depth_support(17.4, 15.0, 6, 0.02),
-            "7.6 px from the contour"
-        );
-        assert!(
-            !step.depth_support(19.6, 15.0, 6, 0.02),
-            "the window reaches u = 26"
-        );
-        assert!(
-            !step.depth_support(30.0, 15.0, 6, 0.02),
-            "the window reaches u = 24"
-        );
         // The same contour with a 3 px gap without depth (flying pixels, a projector shadow).
         let gap = view(|u, _| match u {
             0..25 => 0.45,
             25..28 => f32::NAN,
             _ => 0.75,
         });
-        assert!(gap.depth_support(17.4, 15.0, 6, 0.02));
-        assert!(
-            !gap.depth_support(22.0, 15.0, 6, 0.02),
-            "across the gap to u = 28"
-        );
-        assert!(
-            !gap.depth_support(26.0, 15.0, 6, 0.02),
-            "no depth at the keypoint"
-        );
         // Holes inside one surface (wash-out) are no contour.
         let holes = view(|u, v| if (u + 2 * v) % 5 == 0 { 0.0 } else { 0.45 });
-        assert!(holes.depth_support(21.0, 15.0, 6, 0.02));
         // A contour along a row (a horizontal edge) is caught by the columns.
         let ledge = view(|_, v| if v < 18 { 0.45 } else { 0.6 });
-        assert!(!ledge.depth_support(20.0, 14.0, 6, 0.02));
-        assert!(ledge.depth_support(20.0, 11.0, 6, 0.02));
+        let cases = [
+            (&slanted, 20.0, 15.0, true, "a slanted plane"),
+            (&step, 17.4, 15.0, true, "7.6 px from the contour"),
+            (&step, 19.6, 15.0, false, "the window reaches u = 26"),
+            (&step, 30.0, 15.0, false, "the window reaches u = 24"),
+            (&gap, 17.4, 15.0, true, "short of the gap"),
+            (&gap, 22.0, 15.0, false, "across the gap to u = 28"),
+            (&gap, 26.0, 15.0, false, "no depth at the keypoint"),
+            (&holes, 21.0, 15.0, true, "holes inside one surface"),
+            (&ledge, 20.0, 14.0, false, "the window reaches v = 18"),
+            (&ledge, 20.0, 11.0, true, "above the ledge"),
+        ];
+        for (v, x, y, want, why) in cases {
+            assert_eq!(v.depth_support(x, y, 6, 0.02), want, "({x}, {y}): {why}");
+        }
         // Windows leaving the image, non-finite positions, no depth at all.
         assert!(!slanted.depth_support(3.0, 15.0, 6, 0.02));
         assert!(!slanted.depth_support(20.0, 25.0, 6, 0.02));
