@@ -102,6 +102,7 @@ pub fn run(settings: &Settings) -> Result<()> {
         x_label: "hour".into(),
         y_label: "runs (%)".into(),
         series: lines,
+        log_y: false,
     };
     let files = viz::plots::write_line_plot(&plot, &settings.out.plot_stem("success_by_hour"))?;
     report.image("success by hour", &settings.out.relative(&files.png));
@@ -120,6 +121,7 @@ pub fn run(settings: &Settings) -> Result<()> {
                 .collect(),
             band: Vec::new(),
         }],
+        log_y: false,
     };
     let files = viz::plots::write_line_plot(&time_plot, &settings.out.plot_stem("time_by_hour"))?;
     report.image("time by hour", &settings.out.relative(&files.png));

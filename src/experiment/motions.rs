@@ -103,6 +103,8 @@ pub fn run(settings: &Settings) -> Result<()> {
         x_label: "motions (views)".to_owned(),
         y_label: "median e_t (mm)".to_owned(),
         series,
+        // ZHI's translation is tens of millimetres off; ours is under one.
+        log_y: true,
     };
     let files = viz::plots::write_line_plot(&line, &settings.out.plot_stem("motions_median_e_t"))?;
     report.image(&line.title, &settings.out.relative(&files.png));

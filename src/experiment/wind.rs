@@ -108,6 +108,7 @@ pub fn run(settings: &Settings) -> Result<()> {
                 band: Vec::new(),
             },
         ],
+        log_y: false,
     };
     let files = viz::plots::write_line_plot(&plot, &settings.out.plot_stem("success_by_wind"))?;
     report.image("success by wind", &settings.out.relative(&files.png));

@@ -49,8 +49,12 @@ static FONT_TTF: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 const FONT: &str = "sans-serif";
 /// Size of every plot in pixels (PNG) and user units (SVG).
 pub const PLOT_SIZE: (u32, u32) = (1000, 620);
-/// Head room above the data of box plots and bar charts for the legend (fraction of span).
-const LEGEND_ROOM: f64 = 0.25;
+/// Height of one legend entry and the legend box's padding (pixels, at label font 15).
+const LEGEND_LINE_PX: f64 = 19.0;
+const LEGEND_PAD_PX: f64 = 26.0;
+/// A lower bound on the data area's height in a [`PLOT_SIZE`] chart (pixels): the caption,
+/// margins and the tallest category labels take the rest.
+const DATA_AREA_PX: f64 = 440.0;
 /// Light mesh lines between two labelled ones.
 const LIGHT_LINES: usize = 1;
 /// Whisker reach in interquartile ranges (Tukey).
@@ -148,6 +152,9 @@ pub struct LinePlot {
     pub y_label: String,
     /// The lines, one colour each in order.
     pub series: Vec<Line>,
+    /// A logarithmic y axis (one method orders of magnitude off flattens the others on a
+    /// linear one); values <= 0 are then ignored.
+    pub log_y: bool,
 }
 
 /// A grouped bar chart: one group per category, one bar per series inside it.
@@ -388,11 +395,42 @@ fn category_axis(n: usize) -> Range<f64> {
     -0.5..(n.max(1) as f64 - 0.5)
 }
 
-/// `r` grown at the top by [`LEGEND_ROOM`] of its span, so the legend (upper right) does
-/// not cover the highest boxes, bars or line points (e.g. a success rate at 100 %).
-fn with_legend_room(r: Range<f64>) -> Range<f64> {
+/// `r` grown at the top so that a legend of `entries` lines (upper right) lies above the data
+/// and covers none of the highest boxes, bars or line points (e.g. a success rate at 100 %):
+/// the data keeps the lower `1 - f` of the axis, `f` being the legend's share of the data
+/// area's height.
+fn with_legend_room(r: Range<f64>, entries: usize) -> Range<f64> {
+    let legend_px = LEGEND_PAD_PX + LEGEND_LINE_PX * entries as f64;
+    let f = (legend_px / DATA_AREA_PX).min(0.6);
     let span = r.end - r.start;
-    r.start..r.end + LEGEND_ROOM * span
+    r.start..r.start + span / (1.0 - f)
+}
+
+/// How many y labels to ask plotters for on a log10 axis `r`: the number of whole decades in
+/// it when there are at least two, so that its 1-2-5 tick search lands on the decades
+/// (`10^0.5` would print as 3.162); otherwise plotters' default.
+fn log_label_count(r: &Range<f64>) -> usize {
+    let decades = (r.end.floor() - r.start.ceil() + 1.0).max(0.0) as usize;
+    if decades >= 2 {
+        decades
+    } else {
+        DEFAULT_LABELS
+    }
+}
+
+/// plotters' default number of axis labels.
+const DEFAULT_LABELS: usize = 10;
+
+/// A tick label on a linear axis: at most six decimals, trailing zeros dropped (12, not 12.0;
+/// 0.3, not 0.30000000000000004).
+fn plain_tick(v: f64) -> String {
+    let s = format!("{v:.6}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".to_owned()
+    } else {
+        s.to_owned()
+    }
 }
 
 /// Margin around every chart (pixels).
@@ -472,14 +510,32 @@ fn draw_category_labels<DB: DrawingBackend>(
     Ok(())
 }
 
-/// A y tick label in the samples' units for a log10 axis value.
+/// A y tick label in the samples' units for a log10 axis value: three significant digits
+/// (a decade prints exactly: 1, 0.01, 1e9).
 fn log_tick(v: f64) -> String {
     let x = 10f64.powf(v);
-    if (1e-3..1e4).contains(&x.abs()) {
-        let s = format!("{x:.4}");
-        s.trim_end_matches('0').trim_end_matches('.').to_owned()
-    } else {
+    let decade = (v - v.round()).abs() < 1e-9;
+    if (1e-3..1e4).contains(&x) {
+        let decimals = (2 - x.log10().floor() as i32).max(0) as usize;
+        let s = format!("{x:.decimals$}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_owned()
+        } else {
+            s
+        }
+    } else if decade {
         format!("{x:.0e}")
+    } else {
+        format!("{x:.2e}")
+    }
+}
+
+/// `y` as drawn on the y axis: log10 of it on a log axis (`None` for y <= 0 there).
+fn axis_y(y: f64, log_y: bool) -> Option<f64> {
+    match (log_y, y > 0.0) {
+        (false, _) => Some(y),
+        (true, true) => Some(y.log10()),
+        (true, false) => None,
     }
 }
 
@@ -512,7 +568,7 @@ impl Draw for BoxPlot {
                 (l.min(x), h.max(x))
             });
         let xr = category_axis(self.conditions.len());
-        let yr = with_legend_room(padded(lo, hi, lo >= 0.0 && !self.log_y));
+        let yr = with_legend_room(padded(lo, hi, lo >= 0.0 && !self.log_y), self.methods.len());
         let (labels, label_area) = category_labels(root, &self.conditions);
         let y_desc = if self.log_y {
             format!("{} (log scale)", self.y_label)
@@ -523,8 +579,13 @@ impl Draw for BoxPlot {
             if self.log_y {
                 log_tick(*v)
             } else {
-                format!("{v}")
+                plain_tick(*v)
             }
+        };
+        let y_labels = if self.log_y {
+            log_label_count(&yr)
+        } else {
+            DEFAULT_LABELS
         };
         let mut chart = ChartBuilder::on(root)
             .caption(&self.title, (FONT, 24))
@@ -540,6 +601,7 @@ impl Draw for BoxPlot {
             .x_desc(&self.x_label)
             .y_desc(&y_desc)
             .y_label_formatter(&y_tick)
+            .y_labels(y_labels)
             .x_labels(0)
             .label_style((FONT, 15))
             .axis_desc_style((FONT, 17))
@@ -605,6 +667,7 @@ impl Draw for BoxPlot {
 impl Draw for LinePlot {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
         root.fill(&WHITE).map_err(msg)?;
+        let log_y = self.log_y;
         let xs = self
             .series
             .iter()
@@ -614,6 +677,7 @@ impl Draw for LinePlot {
                 .iter()
                 .map(|p| p.1)
                 .chain(s.band.iter().flat_map(|b| [b.1, b.2]))
+                .filter_map(|y| axis_y(y, log_y))
         });
         let range = |it: &mut dyn Iterator<Item = f64>| {
             it.filter(|v| v.is_finite())
@@ -623,21 +687,31 @@ impl Draw for LinePlot {
         };
         let (x0, x1) = range(&mut xs.into_iter());
         let (y0, y1) = range(&mut ys.into_iter());
+        let yr = with_legend_room(padded(y0, y1, y0 >= 0.0 && !log_y), self.series.len());
+        let (y_desc, y_labels) = if log_y {
+            (
+                format!("{} (log scale)", self.y_label),
+                log_label_count(&yr),
+            )
+        } else {
+            (self.y_label.clone(), DEFAULT_LABELS)
+        };
+        let y_tick = |v: &f64| if log_y { log_tick(*v) } else { plain_tick(*v) };
         let mut chart = ChartBuilder::on(root)
             .caption(&self.title, (FONT, 24))
             .margin(CHART_MARGIN)
             .x_label_area_size(48)
             .y_label_area_size(Y_LABEL_AREA)
-            .build_cartesian_2d(
-                padded(x0, x1, false),
-                with_legend_room(padded(y0, y1, y0 >= 0.0)),
-            )
+            .build_cartesian_2d(padded(x0, x1, false), yr)
             .map_err(msg)?;
         chart
             .configure_mesh()
             .max_light_lines(LIGHT_LINES)
             .x_desc(&self.x_label)
-            .y_desc(&self.y_label)
+            .y_desc(&y_desc)
+            .x_label_formatter(&|v| plain_tick(*v))
+            .y_label_formatter(&y_tick)
+            .y_labels(y_labels)
             .label_style((FONT, 15))
             .axis_desc_style((FONT, 17))
             .draw()
@@ -650,6 +724,7 @@ impl Draw for LinePlot {
                     .iter()
                     .map(|b| (b.0, b.2))
                     .chain(s.band.iter().rev().map(|b| (b.0, b.1)))
+                    .filter_map(|(x, y)| Some((x, axis_y(y, log_y)?)))
                     .filter(|p| p.0.is_finite() && p.1.is_finite())
                     .collect();
                 chart
@@ -659,7 +734,7 @@ impl Draw for LinePlot {
             let pts: Vec<(f64, f64)> = s
                 .points
                 .iter()
-                .copied()
+                .filter_map(|&(x, y)| Some((x, axis_y(y, log_y)?)))
                 .filter(|p| p.0.is_finite() && p.1.is_finite())
                 .collect();
             chart
@@ -699,7 +774,7 @@ impl Draw for BarChart {
                 (l.min(v), h.max(v))
             });
         let xr = category_axis(self.categories.len());
-        let yr = with_legend_room(padded(lo, hi, true));
+        let yr = with_legend_room(padded(lo, hi, true), self.series.len());
         let (labels, label_area) = category_labels(root, &self.categories);
         let mut chart = ChartBuilder::on(root)
             .caption(&self.title, (FONT, 24))
@@ -714,6 +789,7 @@ impl Draw for BarChart {
             .disable_x_mesh()
             .x_desc(&self.x_label)
             .y_desc(&self.y_label)
+            .y_label_formatter(&|v| plain_tick(*v))
             .x_labels(0)
             .label_style((FONT, 15))
             .axis_desc_style((FONT, 17))
@@ -819,6 +895,7 @@ mod tests {
                 points: vec![(12.0, 3.0), (14.0, 2.0)],
                 band: vec![(12.0, 2.0, 4.0), (14.0, 1.0, 2.5)],
             }],
+            log_y: false,
         };
         let f = write_line_plot(&line, &dir.path().join("line")).expect("line");
         assert!(image::open(&f.png).is_ok());
@@ -866,6 +943,64 @@ mod tests {
         assert_eq!(log_tick(0.0), "1");
         assert_eq!(log_tick(-2.0), "0.01");
         assert_eq!(log_tick(9.0), "1e9");
+        // Only decades are labelled when the axis spans two or more.
+        let ticks: Vec<f64> = texts.iter().filter_map(|t| t.parse::<f64>().ok()).collect();
+        assert!(ticks.len() >= 5, "{ticks:?}");
+        for t in ticks {
+            let e = t.log10();
+            assert!((e - e.round()).abs() < 1e-9, "tick {t} is no decade");
+        }
+    }
+
+    #[test]
+    fn log_ticks_are_decades_or_three_digits() {
+        assert_eq!(log_label_count(&(-3.6..1.7)), 5);
+        assert_eq!(log_label_count(&(0.2..1.5)), DEFAULT_LABELS);
+        // Between decades (an axis under two decades wide): three significant digits.
+        assert_eq!(log_tick(3.5), "3162");
+        assert_eq!(log_tick(0.1), "1.26");
+        assert_eq!(log_tick(-1.5), "0.0316");
+        assert_eq!(log_tick(-3.5), "3.16e-4");
+        assert_eq!(plain_tick(12.0), "12");
+        assert_eq!(plain_tick(0.1 + 0.2), "0.3");
+        assert_eq!(plain_tick(-0.0000001), "0");
+    }
+
+    #[test]
+    fn the_legend_covers_no_bar() {
+        // The matchers' chart: six series with long names, three sets, every bar at the
+        // same height, so the last set's bars stand under the legend. Its background is white
+        // at 85 %: a bar behind it would show as a pale tint of its colour.
+        let dir = tempfile::tempdir().expect("tempdir");
+        let names = [
+            "orb-gms",
+            "orb-bf",
+            "sift",
+            "akaze",
+            "orb-gms-retain-best",
+            "opencv-orb-gms",
+        ];
+        let bars = BarChart {
+            title: "b".into(),
+            x_label: "set".into(),
+            y_label: "rate".into(),
+            categories: vec!["sim".into(), "shecar".into(), "warp".into()],
+            series: names.iter().map(|n| ((*n).into(), vec![1.0; 3])).collect(),
+        };
+        let f = write_bar_chart(&bars, &dir.path().join("bars")).expect("bars");
+        let img = image::open(&f.png).expect("png").to_rgb8();
+        let tint = |c: RGBColor| {
+            [c.0, c.1, c.2].map(|v| (0.85 * 255.0 + 0.15 * f64::from(v)).round() as i32)
+        };
+        for c in &PALETTE[..names.len()] {
+            let t = tint(*c);
+            let seen = img.pixels().filter(|p| {
+                p.0.iter()
+                    .zip(t)
+                    .all(|(&v, w)| (i32::from(v) - w).abs() <= 2)
+            });
+            assert_eq!(seen.count(), 0, "a bar of {c:?} shows through the legend");
+        }
     }
 
     #[test]
