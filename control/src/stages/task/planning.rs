@@ -67,6 +67,13 @@ pub const DETOUR_RISE_M: f64 = 0.25;
 pub const DETOUR_OUT_M: [f64; 2] = [0.15, 0.3];
 /// Lift moves are collision-checked at this step (m).
 pub const LIFT_CHECK_STEP_M: f64 = 0.05;
+/// A bent back-off ([`Planner::back_off`]) first goes this far straight along the tool's -z:
+/// the gripper is off a handle after `RELEASE_DISTANCE_M` (2 cm), the rod's head off the
+/// wire after its hook's depth.
+pub const BACK_OFF_STRAIGHT_M: f64 = 0.06;
+/// Elevations of a bent back-off's remainder above the tool's -z (deg), tried in turn: the
+/// straight line down and back brings the upper arm towards the lift plate.
+pub const BACK_OFF_BENDS_DEG: [f64; 2] = [30.0, 60.0];
 /// A straight line refuses when consecutive via points jump by more than this in a joint
 /// (rad): the IK changed branch.
 const LINE_BRANCH_JUMP_RAD: f64 = 0.3;
@@ -962,10 +969,15 @@ impl Planner<'_> {
     }
 
     /// Back along the tool's -z by `distance_m` at the current lift, with `allowed` contacts
-    /// (body, obstacle) ignored: the move after a miss.
+    /// (body, obstacle) ignored: the release, the move after a miss.
+    ///
+    /// When the straight line collides, the back-off bends: [`BACK_OFF_STRAIGHT_M`] along
+    /// -z, then the rest of `distance_m` along -z turned up by each of
+    /// [`BACK_OFF_BENDS_DEG`] in turn, the tool's attitude kept. A release refused here
+    /// would leave the gripper on the handle of a rod clamped to the wire.
     ///
     /// # Errors
-    /// As the plans.
+    /// As the plans; the straight line's refusal when no bend plans either.
     pub fn back_off(
         &self,
         distance_m: f64,
@@ -975,14 +987,46 @@ impl Planner<'_> {
         let q = self.q()?;
         let lift = self.lift()?;
         let tool = self.base_from_tool0(lift, &q);
-        let back = poses::along_own_z(&tool, -distance_m);
-        let line = self.line_waypoints(lift, &q, &back)?;
         let mut world = self.world(lift)?;
         for (body, obstacle) in allowed {
             world = world.allowing(body, obstacle);
         }
-        let plan = self.plan(&world, lift, &q, &line, what)?;
-        Ok((plan, line.last().copied().unwrap_or(q)))
+        let back = poses::along_own_z(&tool, -distance_m);
+        let line = self.line_waypoints(lift, &q, &back)?;
+        let straight = match self.plan(&world, lift, &q, &line, what) {
+            Ok(plan) => return Ok((plan, line.last().copied().unwrap_or(q))),
+            Err(stop) if stop.reason_code == "collision" => stop,
+            Err(stop) => return Err(stop),
+        };
+        let first = BACK_OFF_STRAIGHT_M.min(distance_m);
+        let down = tool.rotation * -Vector3::z();
+        // The vertical plane of -z; a tool pointing straight up or down has no "up" to turn to.
+        let up = Vector3::z() - down * down.z;
+        if distance_m <= first || up.norm() < 1e-6 {
+            return Err(straight);
+        }
+        let up = up.normalize();
+        let mid = poses::along_own_z(&tool, -first);
+        let Ok(to_mid) = self.line_waypoints(lift, &q, &mid) else {
+            return Err(straight);
+        };
+        let q_mid = to_mid.last().copied().unwrap_or(q);
+        for bend_deg in BACK_OFF_BENDS_DEG {
+            let b = bend_deg.to_radians();
+            let dir = down * b.cos() + up * b.sin();
+            let end = Isometry3::from_parts(
+                (mid.translation.vector + dir * (distance_m - first)).into(),
+                mid.rotation,
+            );
+            let Ok(rest) = self.line_waypoints(lift, &q_mid, &end) else {
+                continue;
+            };
+            let bent: Vec<[f64; 6]> = to_mid.iter().chain(&rest).copied().collect();
+            if let Ok(plan) = self.plan(&world, lift, &q, &bent, what) {
+                return Ok((plan, bent.last().copied().unwrap_or(q)));
+            }
+        }
+        Err(straight)
     }
 }
 

@@ -6,11 +6,13 @@ use msgs::topics::{
     ARM_JOINT_TRAJECTORY, ARM_PLANNED_PATH, BASE_GOAL, CALIBRATION_COMMAND, CAMERA_TRIGGER,
     CLAMP_COMMAND, LIFT_COMMAND, PERCEPTION_ROI_CLOUD, PERCEPTION_TARGET_POSE,
 };
-use nalgebra::{Point3, Vector3};
+use nalgebra::{Isometry3, Point3, Vector3};
 
 use super::rig::Rig;
 use super::{LIMIT_S, assert_done, assert_ended, count, steps_after, with_reason};
+use crate::motion::collision::OrientedBox;
 use crate::stages::task::TaskKind;
+use crate::stages::task::planning::{BACK_OFF_BENDS_DEG, BACK_OFF_STRAIGHT_M};
 use crate::tasks::site::BasePose;
 
 /// A look distance at which the rig's camera sees less than the stored rod's handle.
@@ -532,6 +534,90 @@ fn release_backs_off_the_hung_rod_and_retreat_stows() {
     assert_eq!(count(&rig, "release", CLAMP_COMMAND), 0);
     assert!(count(&rig, "retreat", ARM_JOINT_TRAJECTORY) >= 1);
     assert_done(&rig);
+}
+
+/// A release whose straight back-off would hit something bends up after the gripper is off
+/// the handle, rather than leave the gripper on a rod clamped to the wire; with no way out,
+/// it refuses as the straight line did.
+#[test]
+fn a_blocked_release_bends_up_after_leaving_the_handle() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, _| c.self_maintenance = false);
+    rig.run_until(LIMIT_S, |r| r.steps().iter().any(|s| s == "release"));
+    let allowed = [
+        ("tool", "hung_rod_handle"),
+        ("arm_wrist3_link", "hung_rod_handle"),
+    ];
+    let release_m = rig.stage.task.config.release_m;
+    let (tool, map_from_base) = {
+        let p = rig.stage.task.planner();
+        let (Ok(q), Ok(lift), Ok(base_from_map)) = (p.q(), p.lift(), p.base_from_map()) else {
+            panic!("no robot state at the release");
+        };
+        (p.base_from_tool0(lift, &q), base_from_map.inverse())
+    };
+    let Ok((_, straight_end)) = rig
+        .stage
+        .task
+        .planner()
+        .back_off(release_m, &allowed, "release")
+    else {
+        panic!("the rig's release backs off straight");
+    };
+    // A block behind the wrist where the straight line leaves it (on a seeded site the upper
+    // arm came within 5 mm of the lift plate there).
+    let down = tool.rotation * -Vector3::z();
+    let up = (Vector3::z() - down * down.z).normalize();
+    let end = tool.translation.vector + down * release_m;
+    let block = |centre: Vector3<f64>, half_m: f64| {
+        (
+            "block".to_owned(),
+            OrientedBox {
+                frame_from_box: map_from_base
+                    * Isometry3::translation(centre.x, centre.y, centre.z),
+                half_extents_m: Vector3::repeat(half_m),
+            },
+        )
+    };
+    let half_m = 0.015;
+    rig.stage
+        .task
+        .config
+        .site
+        .obstacles
+        .push(block(end + down * 0.13, half_m));
+    let p = rig.stage.task.planner();
+    let Ok((_, bent_end)) = p.back_off(release_m, &allowed, "release") else {
+        panic!(
+            "no bent release: {:?}",
+            p.back_off(release_m, &allowed, "release").err()
+        );
+    };
+    let Ok(lift) = p.lift() else {
+        panic!("no lift")
+    };
+    let at = |q: &[f64; 6]| p.base_from_tool0(lift, q).translation.vector;
+    assert!((at(&straight_end) - end).norm() < 1e-3);
+    // BACK_OFF_STRAIGHT_M along -z, the rest of the release turned up by one of the bends.
+    let bent = at(&bent_end) - tool.translation.vector;
+    let first = BACK_OFF_STRAIGHT_M;
+    let bend_ends: Vec<Vector3<f64>> = BACK_OFF_BENDS_DEG
+        .iter()
+        .map(|deg| {
+            let b = deg.to_radians();
+            down * first + (down * b.cos() + up * b.sin()) * (release_m - first)
+        })
+        .collect();
+    assert!(
+        bend_ends.iter().any(|e| (e - bent).norm() < 1e-3),
+        "{bent:?} is none of {bend_ends:?}"
+    );
+    // Walled in: the straight line's refusal.
+    rig.stage.task.config.site.obstacles.push(block(end, 0.25));
+    let p = rig.stage.task.planner();
+    let Err(stop) = p.back_off(release_m, &allowed, "release") else {
+        panic!("a release through a wall");
+    };
+    assert_eq!(stop.reason_code, "collision", "{}", stop.text);
 }
 
 /// The remove measures the empty rack before it fetches the rod: a rack 2.5 cm off the
