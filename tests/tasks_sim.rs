@@ -363,3 +363,50 @@ fn at_dusk_the_wrist_light_lets_the_rod_be_hung_and_the_lit_run_replays_identica
     let info_text = String::from_utf8_lossy(&info.stdout);
     assert!(!info_text.contains("/wrist_light/"), "{info_text}");
 }
+
+/// A seeded bay (a seeded-sites tasks trial) where the arm flips elbow and wrist between the
+/// look at the wire and the pre-approach: every fixed detour swings the held 2 m rod into
+/// the wire or the cabinet, and the path searched around them hangs the rod.
+#[test]
+fn where_every_fixed_detour_crosses_the_wire_a_searched_path_hangs_the_rod() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let scenario = dir.path().join("bay.toml");
+    std::fs::write(
+        &scenario,
+        "name = \"hang-seeded-flip\"\nseed = 5707052935938151362\nduration_s = 200.0\n\
+         hour = 8.6\ntask = \"hang\"\n\n[wind]\nmean_mps = 1.3\n\n[site]\nlayout = \"seeded\"\n\n\
+         [camera]\nscale = 0.5\n\n[parameters]\ntask.self_maintenance = false\n",
+    )
+    .expect("scenario");
+    let (scenario, site, rec) = (
+        scenario.to_str().expect("utf-8"),
+        dir.path().join("site.toml"),
+        dir.path().join("flip.mcap"),
+    );
+    let survey = rodlog(&["survey", scenario, "--out", site.to_str().expect("utf-8")]);
+    assert!(
+        survey.status.success(),
+        "{}",
+        String::from_utf8_lossy(&survey.stderr)
+    );
+    let run = rodlog(&[
+        "record",
+        "--scenario",
+        scenario,
+        "--site",
+        site.to_str().expect("utf-8"),
+        "--out",
+        rec.to_str().expect("utf-8"),
+        "--until-done",
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let (ok, v) = judge(&rec);
+    assert!(ok, "{v}");
+    assert_eq!(v["success"], true, "{v}");
+    assert_no_unsafe_command(&v);
+    assert_replays_identically(&rec);
+}

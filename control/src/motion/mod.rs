@@ -11,6 +11,7 @@
 //! | [`base_planner`] | occupancy grid, footprint inflation, 8-connected A* |
 //! | [`lift`] | lift height that puts the target in the arm's dexterous workspace |
 //! | [`planner`] | IK to a tool0 goal, checked plan, its `/arm/joint_trajectory` and `/arm/planned_path` |
+//! | [`roadmap`] | RRT-Connect in joint space with shortcuts: a path around obstacles where the fixed detours fail |
 //! | [`checker`] | the log checker: every commanded and executed arm motion within limits and collision-free |
 //!
 //! # Conventions
@@ -23,6 +24,7 @@ pub mod checker;
 pub mod collision;
 pub mod lift;
 pub mod planner;
+pub mod roadmap;
 pub mod trajectory;
 
 /// Why a motion could not be planned.

@@ -27,6 +27,7 @@ use super::memory::{HandleSite, Rod};
 use crate::motion::collision::{ArmCollisionModel, Capsule, CollisionWorld, Payload};
 use crate::motion::lift::{LiftParams, choose_lift};
 use crate::motion::planner::{self, ArmPlan};
+use crate::motion::roadmap::{self, RoadmapParams};
 use crate::motion::trajectory::DEFAULT_DT_NS;
 use crate::tasks::poses;
 use crate::tasks::site::rod_capsules;
@@ -445,6 +446,37 @@ impl Planner<'_> {
             }
         }
         Err(direct)
+    }
+
+    /// A checked joint-space move from `q0` to `goal_q` by a path searched around the
+    /// obstacles ([`roadmap::plan_around`]): for a move that [`Self::plan_move`]'s fixed
+    /// detours cannot make.
+    ///
+    /// # Errors
+    /// `collision` when no path was found; those of [`Self::plan`].
+    pub fn plan_move_around(
+        &self,
+        world: &CollisionWorld,
+        lift_m: f64,
+        q0: &[f64; 6],
+        goal_q: &[f64; 6],
+        what: &str,
+    ) -> Result<ArmPlan, Stop> {
+        let via = roadmap::plan_around(
+            &self.arm_model(),
+            world,
+            lift_m,
+            q0,
+            goal_q,
+            &RoadmapParams::default(),
+        )
+        .ok_or_else(|| {
+            Stop::refused(
+                "collision",
+                format!("{what}: no collision-free path found around the obstacles"),
+            )
+        })?;
+        self.plan(world, lift_m, q0, &via, what)
     }
 
     /// Via points of the straight line from `q0`'s pose to `goal` (tool0 in `base_link`),

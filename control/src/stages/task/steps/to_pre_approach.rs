@@ -5,6 +5,12 @@
 //! [`APPROACH_REACH_MARGIN_M`] of reach to spare; where it is not at the comfortable lift,
 //! lower tool heights ([`HANG_TOOL_HEIGHTS_M`]) reach farther out. A swinging wire's band widens the
 //! conductors' clearance; the pre-approach stands back by as much more.
+//!
+//! Where the arm must change its IK branch on the way (elbow and wrist flipped between the
+//! look and the pre-approach), the joint move swings the 2 m rod through a wide arc. When no
+//! lift plans with [`Planner::plan_move`]'s fixed detours (on a seeded site every one of them
+//! crossed the wire or the cabinet), a path searched around the obstacles is tried at each
+//! lift ([`Planner::plan_move_around`]).
 
 use nalgebra::Isometry3;
 
@@ -86,15 +92,29 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
     let (candidates, first_refusal) = hang_lifts(&p, &tool_hang, &q);
     let pre_hook = hook * Isometry3::translation(-approach_m, 0.0, 0.0);
     let tool_pre = poses::tool0_for_hook(&pre_hook);
-    // Each lift planned once: the first with the reach to spare is taken, else the first
-    // plannable one (as the arm's reach allows).
+    // Each lift planned once with the fixed detours, then once with a searched path: the
+    // first with the reach to spare is taken, else the first plannable one (as the arm's
+    // reach allows).
     let (mut without_margin, mut plan_refusal) = (None, None);
-    for (hang_lift, q_hang) in candidates {
+    let passes = [false, true].into_iter().flat_map(|around| {
+        candidates
+            .iter()
+            .map(move |&(l, q_hang)| (around, l, q_hang))
+    });
+    for (around, hang_lift, q_hang) in passes {
+        if around && without_margin.is_some() {
+            break;
+        }
         let attempt = (|| {
             // The pre-approach configuration for the hang lift, executed first at the look
             // lift ...
             let q_pre = p.ik_goal(hang_lift, &tool_pre, &q_hang)?;
-            let to_pre = p.plan_move(&world, lift, &q, &q_pre, "arm to the pre-approach")?;
+            let what = "arm to the pre-approach";
+            let to_pre = if around {
+                p.plan_move_around(&world, lift, &q, &q_pre, what)?
+            } else {
+                p.plan_move(&world, lift, &q, &q_pre, what)?
+            };
             // ... then the lift lowers the hook to the wire's height.
             p.check_lift_move(&q_pre, lift, hang_lift)?;
             let line = p.line_waypoints(hang_lift, &q_pre, &tool_hang)?;
