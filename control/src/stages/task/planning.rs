@@ -68,9 +68,8 @@ pub const DETOUR_RISE_M: f64 = 0.25;
 pub const DETOUR_OUT_M: [f64; 2] = [0.15, 0.3];
 /// Lift moves are collision-checked at this step (m).
 pub const LIFT_CHECK_STEP_M: f64 = 0.05;
-/// A bent back-off ([`Planner::back_off`]) first goes this far straight along the tool's -z:
-/// the gripper is off a handle after `RELEASE_DISTANCE_M` (2 cm), the rod's head off the
-/// wire after its hook's depth.
+/// A bent release ([`Planner::release_back_off`]) first goes this far straight along the
+/// tool's -z: the gripper is off the handle after `RELEASE_DISTANCE_M` (2 cm).
 pub const BACK_OFF_STRAIGHT_M: f64 = 0.06;
 /// Elevations of a bent back-off's remainder above the tool's -z (deg), tried in turn: the
 /// straight line down and back brings the upper arm towards the lift plate.
@@ -1001,20 +1000,44 @@ impl Planner<'_> {
     }
 
     /// Back along the tool's -z by `distance_m` at the current lift, with `allowed` contacts
-    /// (body, obstacle) ignored: the release, the move after a miss.
-    ///
-    /// When the straight line collides, the back-off bends: [`BACK_OFF_STRAIGHT_M`] along
-    /// -z, then the rest of `distance_m` along -z turned up by each of
-    /// [`BACK_OFF_BENDS_DEG`] in turn, the tool's attitude kept. A release refused here
-    /// would leave the gripper on the handle of a rod clamped to the wire.
+    /// (body, obstacle) ignored: the moves after a miss, the unhook. Straight only: a rod's
+    /// hook must leave the wire along the line it came in by, and its contact with the wire
+    /// is one of the ignored ones.
     ///
     /// # Errors
-    /// As the plans; the straight line's refusal when no bend plans either.
+    /// As the plans.
     pub fn back_off(
         &self,
         distance_m: f64,
         allowed: &[(&'static str, &str)],
         what: &str,
+    ) -> Result<(ArmPlan, [f64; 6]), Stop> {
+        self.back_off_bending(distance_m, allowed, what, false)
+    }
+
+    /// [`Self::back_off`] for the release (the gripper leaving the handle of the rod on the
+    /// wire): when the straight line collides, [`BACK_OFF_STRAIGHT_M`] along -z, then the
+    /// rest of `distance_m` along -z turned up by each of [`BACK_OFF_BENDS_DEG`] in turn,
+    /// the tool's attitude kept. A refused release would leave the gripper on a rod clamped
+    /// to the wire.
+    ///
+    /// # Errors
+    /// As the plans; the straight line's refusal when no bend plans either.
+    pub fn release_back_off(
+        &self,
+        distance_m: f64,
+        allowed: &[(&'static str, &str)],
+        what: &str,
+    ) -> Result<(ArmPlan, [f64; 6]), Stop> {
+        self.back_off_bending(distance_m, allowed, what, true)
+    }
+
+    fn back_off_bending(
+        &self,
+        distance_m: f64,
+        allowed: &[(&'static str, &str)],
+        what: &str,
+        bend: bool,
     ) -> Result<(ArmPlan, [f64; 6]), Stop> {
         let q = self.q()?;
         let lift = self.lift()?;
@@ -1027,7 +1050,7 @@ impl Planner<'_> {
         let line = self.line_waypoints(lift, &q, &back)?;
         let straight = match self.plan(&world, lift, &q, &line, what) {
             Ok(plan) => return Ok((plan, line.last().copied().unwrap_or(q))),
-            Err(stop) if stop.reason_code == "collision" => stop,
+            Err(stop) if bend && stop.reason_code == "collision" => stop,
             Err(stop) => return Err(stop),
         };
         let first = BACK_OFF_STRAIGHT_M.min(distance_m);

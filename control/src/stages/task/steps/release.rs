@@ -22,7 +22,7 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
     let tool = p.base_from_tool0(lift, &q);
     // The rod is clamped on the wire where the tool holds it.
     task.memory.rod = Rod::OnWire(tool * robot::grounding_rod::rod_from_tool0_grasp().inverse());
-    let (plan, _) = task.planner().back_off(
+    let (plan, _) = task.planner().release_back_off(
         task.config.release_m,
         &[
             ("tool", "hung_rod_handle"),

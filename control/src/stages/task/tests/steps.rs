@@ -586,12 +586,17 @@ fn a_blocked_release_bends_up_after_leaving_the_handle() {
         .obstacles
         .push(block(end + down * 0.13, half_m));
     let p = rig.stage.task.planner();
-    let Ok((_, bent_end)) = p.back_off(release_m, &allowed, "release") else {
+    let Ok((_, bent_end)) = p.release_back_off(release_m, &allowed, "release") else {
         panic!(
             "no bent release: {:?}",
-            p.back_off(release_m, &allowed, "release").err()
+            p.release_back_off(release_m, &allowed, "release").err()
         );
     };
+    // The other back-offs (after a miss, the unhook) stay on their straight line.
+    let Err(straight) = p.back_off(release_m, &allowed, "release") else {
+        panic!("the block is on the straight line");
+    };
+    assert_eq!(straight.reason_code, "collision", "{}", straight.text);
     let Ok(lift) = p.lift() else {
         panic!("no lift")
     };
@@ -614,7 +619,7 @@ fn a_blocked_release_bends_up_after_leaving_the_handle() {
     // Walled in: the straight line's refusal.
     rig.stage.task.config.site.obstacles.push(block(end, 0.25));
     let p = rig.stage.task.planner();
-    let Err(stop) = p.back_off(release_m, &allowed, "release") else {
+    let Err(stop) = p.release_back_off(release_m, &allowed, "release") else {
         panic!("a release through a wall");
     };
     assert_eq!(stop.reason_code, "collision", "{}", stop.text);
