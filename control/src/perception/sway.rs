@@ -41,7 +41,7 @@
 //! the true angle, rate and wind at the last capture predict it to 1.4 mm 0.5 s ahead but
 //! 4.2 mm 1 s ahead; a sine at the pendulum's exact frequency fitted to six captures, or
 //! `c + k u^2` on the anemometer's readings, is no better than the centre from 0.5 s on
-//! (5.5-6.1 mm against 6.0 mm), and ten captures a second do not change that.
+//! (5.5-6.1 mm against 6.0 mm); ten captures a second gain under 10 % (5.5 against 6.1 mm).
 
 use nalgebra::{Point3, Vector3};
 
