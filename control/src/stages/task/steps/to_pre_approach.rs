@@ -10,7 +10,7 @@
 //! look and the pre-approach), the joint move swings the 2 m rod through a wide arc. When no
 //! lift plans with [`Planner::plan_move`]'s fixed detours (on a seeded site every one of them
 //! crossed the wire or the cabinet), a path searched around the obstacles is tried at each
-//! lift ([`Planner::plan_move_around`]).
+//! lift whose move was the refused part ([`Planner::plan_move_around`]).
 
 use nalgebra::Isometry3;
 
@@ -92,48 +92,62 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
     let (candidates, first_refusal) = hang_lifts(&p, &tool_hang, &q);
     let pre_hook = hook * Isometry3::translation(-approach_m, 0.0, 0.0);
     let tool_pre = poses::tool0_for_hook(&pre_hook);
-    // Each lift planned once with the fixed detours, then once with a searched path: the
-    // first with the reach to spare is taken, else the first plannable one (as the arm's
-    // reach allows).
-    let (mut without_margin, mut plan_refusal) = (None, None);
-    let passes = [false, true].into_iter().flat_map(|around| {
-        candidates
-            .iter()
-            .map(move |&(l, q_hang)| (around, l, q_hang))
-    });
-    for (around, hang_lift, q_hang) in passes {
-        if around && without_margin.is_some() {
-            break;
+    // Each lift planned with the fixed detours: the first with the reach to spare is taken,
+    // else the first plannable one (as the arm's reach allows).
+    let attempt = |around: bool, hang_lift: f64, q_hang: &[f64; 6]| {
+        // The pre-approach configuration for the hang lift, executed first at the look lift
+        // ... (a refusal of this move is marked: only such a lift is worth a searched path)
+        let q_pre = p
+            .ik_goal(hang_lift, &tool_pre, q_hang)
+            .map_err(|s| (s, false))?;
+        let what = "arm to the pre-approach";
+        let to_pre = if around {
+            p.plan_move_around(&world, lift, &q, &q_pre, what)
+        } else {
+            p.plan_move(&world, lift, &q, &q_pre, what)
         }
-        let attempt = (|| {
-            // The pre-approach configuration for the hang lift, executed first at the look
-            // lift ...
-            let q_pre = p.ik_goal(hang_lift, &tool_pre, &q_hang)?;
-            let what = "arm to the pre-approach";
-            let to_pre = if around {
-                p.plan_move_around(&world, lift, &q, &q_pre, what)?
-            } else {
-                p.plan_move(&world, lift, &q, &q_pre, what)?
-            };
-            // ... then the lift lowers the hook to the wire's height.
+        .map_err(|s| (s, true))?;
+        // ... then the lift lowers the hook to the wire's height.
+        let later = || {
             p.check_lift_move(&q_pre, lift, hang_lift)?;
             let line = p.line_waypoints(hang_lift, &q_pre, &tool_hang)?;
             let world_hang = p.world(hang_lift)?.allowing("rod_head", TARGET_WIRE);
             p.plan(&world_hang, hang_lift, &q_pre, &line, "hook approach")?;
-            let spare = p.line_waypoints(hang_lift, &q_pre, &beyond).is_ok();
-            let actions = vec![
-                p.arm_action(&to_pre, "arm to the pre-approach"),
-                Action::lift(lift, hang_lift, "lower to the hook height"),
-            ];
-            Ok((actions, spare))
-        })();
-        match attempt {
+            Ok(p.line_waypoints(hang_lift, &q_pre, &beyond).is_ok())
+        };
+        let spare = later().map_err(|s| (s, false))?;
+        let actions = vec![
+            p.arm_action(&to_pre, "arm to the pre-approach"),
+            Action::lift(lift, hang_lift, "lower to the hook height"),
+        ];
+        Ok::<_, (Stop, bool)>((actions, spare))
+    };
+    let (mut without_margin, mut plan_refusal) = (None, None);
+    let mut blocked_moves = Vec::new();
+    for &(hang_lift, q_hang) in &candidates {
+        match attempt(false, hang_lift, &q_hang) {
             Ok((actions, true)) => return Ok(actions),
             Ok((actions, false)) => {
                 without_margin.get_or_insert(actions);
             }
-            Err(stop) => {
+            Err((stop, move_blocked)) => {
+                if move_blocked {
+                    blocked_moves.push((hang_lift, q_hang));
+                }
                 plan_refusal.get_or_insert(stop);
+            }
+        }
+    }
+    // Then, if no lift planned, a searched path at each lift whose move alone was refused
+    // (a lift refused later, e.g. at the hook approach, would be refused again).
+    if without_margin.is_none() {
+        for (hang_lift, q_hang) in blocked_moves {
+            // The first searched path taken, with or without the reach to spare.
+            match attempt(true, hang_lift, &q_hang) {
+                Ok((actions, _)) => return Ok(actions),
+                Err((stop, _)) => {
+                    plan_refusal.get_or_insert(stop);
+                }
             }
         }
     }
