@@ -9,7 +9,8 @@ mod selfcal_support;
 
 use calib::handeye::pose_error;
 use calib::selfcal::{
-    Mode, SelfCalError, SelfCalMethod, SelfCalParams, calibration_yaml, result_json, self_calibrate,
+    Mode, SelfCalError, SelfCalMethod, SelfCalParams, SharedHandError, calibration_yaml,
+    result_json, self_calibrate,
 };
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use selfcal_support as sup;
@@ -69,6 +70,20 @@ fn selfcal_rgbd_synthetic_recovers_asymmetric_mount() {
     );
     assert_eq!(res.solution.views, 16);
     assert!(res.eq15.is_none(), "ours has no eq. 15 step");
+    // The reported covariance is the jackknife's plus the hand error the views share.
+    let none = SelfCalParams {
+        shared_hand_error: SharedHandError::NONE,
+        ..SelfCalParams::default()
+    };
+    let alone = self_calibrate(&views, &cam, &none).expect("self-calibration");
+    assert_eq!(
+        alone.solution.tool0_from_camera,
+        res.solution.tool0_from_camera
+    );
+    let added = res.solution.covariance.expect("a covariance")
+        - alone.solution.covariance.expect("a covariance");
+    let shared = SharedHandError::AUBO_I10_NOMINAL.covariance();
+    assert!((added - shared).abs().max() < 1e-15, "{added}");
 }
 
 #[test]

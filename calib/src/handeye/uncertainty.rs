@@ -38,6 +38,10 @@
 //! `chi^2_3` 95 % test at its level. Used from [`MIN_JACKKNIFE_VIEWS`] views on (with fewer
 //! the factor grows without bound).
 //!
+//! Neither figure sees an error that every view shares at the flange (the arm's kinematic
+//! model error where the views' configurations are alike): X takes it whole and the pairs
+//! agree. The self-calibration adds it ([`crate::selfcal::SharedHandError`]).
+//!
 //! **Per-motion scales** ([`evaluate_per_motion_scale`], the monocular self-calibration): each
 //! eye translation carries its own fitted scale, a nuisance parameter. Holding them fixed
 //! would count the translation along each `t_A` as measured; instead they are eliminated by

@@ -121,7 +121,9 @@ pub mod yaml;
 pub use drift::{CHECK_MOTION, CannotTell, DriftParams, DriftReport, DriftVerdict, check_drift};
 pub use messages::views_from_messages;
 pub use method::{FinalRefinement, STEP_NAMES, SelfCalMethod, Steps};
-pub use pipeline::{ConsistencyLimits, SelfCalParams, SelfCalResult, self_calibrate};
+pub use pipeline::{
+    ConsistencyLimits, SelfCalParams, SelfCalResult, SharedHandError, self_calibrate,
+};
 pub use stage::{CalibrationStage, CalibrationStageConfig};
 pub use views::CalibView;
 pub use yaml::{calibration_yaml, result_json};

@@ -91,7 +91,10 @@ use super::messages::{
 };
 use super::pairs::extract_features;
 use super::views::{CalibView, intensity_stats};
-use super::{MIN_VIEWS, SelfCalError, SelfCalMethod, SelfCalParams, SelfCalResult, self_calibrate};
+use super::{
+    MIN_VIEWS, SelfCalError, SelfCalMethod, SelfCalParams, SelfCalResult, SharedHandError,
+    self_calibrate,
+};
 use crate::features::KeypointDistribution;
 use crate::relpose::CameraModel;
 
@@ -142,6 +145,10 @@ pub struct CalibrationStageConfig {
     /// The self-calibration method (its steps, [`SelfCalMethod::steps`]); its name is the
     /// `method` of `/calibration/hand_eye`. Default ours.
     pub method: SelfCalMethod,
+    /// The arm's hand-pose error that every view shares, added to the calibration's
+    /// covariance ([`SelfCalParams::shared_hand_error`]). Default
+    /// [`SharedHandError::AUBO_I10_NOMINAL`].
+    pub shared_hand_error: SharedHandError,
 }
 
 impl Default for CalibrationStageConfig {
@@ -162,6 +169,7 @@ impl Default for CalibrationStageConfig {
             seed: SelfCalParams::default().seed,
             orb_distribution: None,
             method: SelfCalMethod::Ours,
+            shared_hand_error: SharedHandError::AUBO_I10_NOMINAL,
         }
     }
 }
@@ -230,6 +238,20 @@ impl CalibrationStageConfig {
             tf_wait: s.seconds("tf_wait_s", d.tf_wait, "longest wait for TF to reach an image stamp")?,
             ignore_depth: s.bool("mono", d.ignore_depth, "ignore depth: monocular calibration")?,
             seed: s.u64("seed", d.seed, "", "RANSAC seed")?,
+            shared_hand_error: SharedHandError {
+                rot_deg: s.non_negative(
+                    "shared_hand_error_rot_deg",
+                    d.shared_hand_error.rot_deg,
+                    "deg",
+                    "the arm's hand-pose error every view shares at the flange (1-sigma per axis; its kinematic model's accuracy), added to the calibration's uncertainty",
+                )?,
+                trans_mm: s.non_negative(
+                    "shared_hand_error_trans_mm",
+                    d.shared_hand_error.trans_mm,
+                    "mm",
+                    "... its translation",
+                )?,
+            },
             orb_distribution: [
                 KeypointDistribution::Quadtree,
                 KeypointDistribution::RetainBest,
@@ -557,6 +579,7 @@ impl CalibrationStage {
     fn selfcal_params(&self, camera: &CameraModel) -> SelfCalParams {
         let mut p = SelfCalParams::for_method(camera, self.config.method);
         p.seed = self.config.seed;
+        p.shared_hand_error = self.config.shared_hand_error;
         if let Some(d) = self.config.orb_distribution {
             p.orb.distribution = d;
         }
