@@ -58,13 +58,23 @@ pub(crate) enum Next {
     /// The end of the task (done).
     Finished,
     /// The `recover` step with these actions (back off after a miss, hold for a sway), then
-    /// the named step.
+    /// where `then` leads.
     Recover {
         /// The recovery's actions.
         actions: Vec<Action>,
-        /// The step after the recovery.
-        then: &'static str,
+        /// Where the recovery leads.
+        then: AfterRecovery,
     },
+}
+
+/// Where a recovery leads ([`Next::Recover`]).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum AfterRecovery {
+    /// The named step of the current phase.
+    Step(&'static str),
+    /// The end of the task with this stop, once the recovery has made the robot safe (the
+    /// hook's last miss backs off the wire before refusing).
+    Stop(Stop),
 }
 
 /// How a task ends early.

@@ -30,7 +30,8 @@
 //! * **Contact** ([`Task::judge_clamp_closed`], [`Task::judge_grasp`]): the clamp joint's
 //!   travel says whether the jaw closed on the wire (hook) or reads the rod's jaw (grasp,
 //!   coupled); a miss backs off and looks again, up to
-//!   [`TaskConfig::attempts`](super::TaskConfig::attempts) (`hook_missed`, `grasp_missed`).
+//!   [`TaskConfig::attempts`](super::TaskConfig::attempts) (`grasp_missed` fails; the
+//!   hook's last miss backs off the wire too and then refuses, `hook_missed`).
 
 use msgs::RobotDuration;
 use msgs::frames::BASE_LINK;
@@ -43,7 +44,7 @@ use robot::grounding_rod::{CLAMP_TRAVEL_M, HookTolerance, WIRE_CONTACT_TRAVEL_M}
 use super::Task;
 use super::action::Action;
 use super::config::TaskKind;
-use super::flow::{Next, Stop};
+use super::flow::{AfterRecovery, Next, Stop};
 use super::memory::{HandleSite, Rod};
 use super::steps::{
     capture_empty_rack, capture_handle, capture_rack, capture_wire, capture_wire_more, check_more,
@@ -471,7 +472,7 @@ impl Task {
                     RobotDuration::from_secs(20),
                     "hold for the wire's sway",
                 )],
-                then: capture_wire::NAME,
+                then: AfterRecovery::Step(capture_wire::NAME),
             }));
         }
         Err(Stop::refused(
@@ -653,7 +654,7 @@ impl Task {
                             RobotDuration::from_secs(10),
                             "hold for the sway",
                         )],
-                        then: look_again,
+                        then: AfterRecovery::Step(look_again),
                     });
                 }
                 reasons.push(why);
@@ -754,11 +755,13 @@ impl Task {
 
     /// Whether the clamp closed on the wire: stopped at the contact travel (clamped, on to
     /// the release) or ran on (the hook missed: open, back off across the wire, raise to the
-    /// look height and look again).
+    /// look height and look again). The last of
+    /// [`TaskConfig::attempts`](super::TaskConfig::attempts) misses backs off the same way
+    /// and then refuses (`hook_missed`): a rod left hooked but unclamped on the wire, the
+    /// gripper still on its handle, is what a crew must never find.
     ///
     /// # Errors
-    /// `hook_missed` after [`TaskConfig::attempts`](super::TaskConfig::attempts); as the
-    /// back-off's plans.
+    /// As the back-off's plans (a refusal).
     pub fn judge_clamp_closed(&mut self) -> Result<Next, Stop> {
         let travel = self.robot.clamp_m.unwrap_or(0.0);
         if (travel - WIRE_CONTACT_TRAVEL_M).abs() <= CLAMP_CONTACT_TOLERANCE_M {
@@ -798,31 +801,46 @@ impl Task {
             WIRE_CONTACT_TRAVEL_M * 1e3,
             CLAMP_TRAVEL_M * 1e3
         );
-        if self.memory.attempts >= self.config.attempts.max(1) {
-            return Err(Stop::failed(
-                "hook_missed",
-                format!("{text}; {} attempts", self.memory.attempts),
-            ));
-        }
-        // Open, back off across the wire, and look again.
-        self.event(TaskEvent::INFO, close_clamp::NAME, "retry", text);
+        // Open and back off across the wire; then raise to look again, or stop there: after
+        // the last miss, or when the raise is refused (the rod stays clear of the wire).
         let p = self.planner();
         let (plan, q_back) = p.back_off(
             self.config.approach_m,
             &[("rod_head", TARGET_WIRE)],
             "back off after a miss",
         )?;
-        let lift = p.lift()?;
-        let look_lift = self.memory.look_lift_m.unwrap_or(lift);
-        p.check_lift_move(&q_back, lift, look_lift)?;
-        Ok(Next::Recover {
-            actions: vec![
-                p.clamp_action(ClampCommand::OPEN, "open the clamp"),
-                p.arm_action(&plan, "back off the wire"),
-                Action::lift(lift, look_lift, "raise to look again"),
-            ],
-            then: look_wire::NAME,
-        })
+        let mut actions = vec![
+            p.clamp_action(ClampCommand::OPEN, "open the clamp"),
+            p.arm_action(&plan, "back off the wire"),
+        ];
+        let backed_off = "the clamp is open and the rod backed off the wire";
+        let then = if self.memory.attempts >= self.config.attempts.max(1) {
+            AfterRecovery::Stop(Stop::refused(
+                "hook_missed",
+                format!(
+                    "{text}; {} attempts: {backed_off}; try again when the wire swings less",
+                    self.memory.attempts
+                ),
+            ))
+        } else {
+            let lift = p.lift()?;
+            let look_lift = self.memory.look_lift_m.unwrap_or(lift);
+            match p.check_lift_move(&q_back, lift, look_lift) {
+                Ok(()) => {
+                    actions.push(Action::lift(lift, look_lift, "raise to look again"));
+                    self.event(TaskEvent::INFO, close_clamp::NAME, "retry", text);
+                    AfterRecovery::Step(look_wire::NAME)
+                }
+                Err(stop) => AfterRecovery::Stop(Stop {
+                    text: format!(
+                        "{text}; {backed_off}, but cannot raise it to look again: {}",
+                        stop.text
+                    ),
+                    ..stop
+                }),
+            }
+        };
+        Ok(Next::Recover { actions, then })
     }
 
     /// Whether the end effector coupled the rod at `site`: the clamp joint then reads the
@@ -890,7 +908,7 @@ impl Task {
         )?;
         Ok(Next::Recover {
             actions: vec![p.arm_action(&plan, "back off the handle")],
-            then: look_again,
+            then: AfterRecovery::Step(look_again),
         })
     }
 }

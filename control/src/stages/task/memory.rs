@@ -8,6 +8,7 @@ use nalgebra::{Isometry3, Point3, Vector3};
 
 use super::action::Action;
 use super::config::TaskKind;
+use super::flow::AfterRecovery;
 use crate::stages::wire_flow::WristCapture;
 use crate::tasks::site::CONDUCTOR_SWAY_MARGIN_M;
 
@@ -78,8 +79,8 @@ pub(crate) struct Memory {
     /// The base has moved towards a wire beyond the arm's reach
     /// ([`reposition`](super::steps::reposition)); once per task.
     pub repositioned: bool,
-    /// The recovery's actions and the step after it.
-    pub recovery: Option<(Vec<Action>, &'static str)>,
+    /// The recovery's actions and where it leads.
+    pub recovery: Option<(Vec<Action>, AfterRecovery)>,
     /// The `reason_code` of the final `done` event.
     pub done_reason: &'static str,
     /// What the final `done` event adds to its text (the check's verdict).

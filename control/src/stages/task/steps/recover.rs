@@ -1,10 +1,11 @@
 //! `recover`: not in any flow's table; a verdict enters it ([`Next::Recover`]) with the
 //! actions that undo a miss (open the clamp and back off the wire, back off a handle) or
-//! wait out a swaying rod, then goes back to the step it names.
+//! wait out a swaying rod, then goes back to the step it names, or ends the task with the
+//! stop it carries.
 
 use crate::stages::task::Task;
 use crate::stages::task::action::Action;
-use crate::stages::task::flow::{Next, StepDef, Stop};
+use crate::stages::task::flow::{AfterRecovery, Next, StepDef, Stop};
 
 /// The step's event name.
 pub(crate) const NAME: &str = "recover";
@@ -25,9 +26,9 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
 }
 
 fn finish(task: &mut Task) -> Result<Next, Stop> {
-    Ok(task
-        .memory
-        .recovery
-        .take()
-        .map_or(Next::Finished, |(_, then)| Next::Goto(then)))
+    match task.memory.recovery.take() {
+        Some((_, AfterRecovery::Step(then))) => Ok(Next::Goto(then)),
+        Some((_, AfterRecovery::Stop(stop))) => Err(stop),
+        None => Ok(Next::Finished),
+    }
 }

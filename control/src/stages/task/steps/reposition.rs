@@ -22,7 +22,7 @@ use super::to_pre_approach::hang_lifts;
 use super::{capture_handle, capture_wire, look_handle, raise_for_look};
 use crate::stages::task::Task;
 use crate::stages::task::action::Action;
-use crate::stages::task::flow::{Next, Stop};
+use crate::stages::task::flow::{AfterRecovery, Next, Stop};
 use crate::stages::task::inputs::base_pose_of;
 use crate::stages::task::memory::Rod;
 use crate::stages::task::planning::Planner;
@@ -73,7 +73,7 @@ pub(crate) fn toward_reach(task: &mut Task, hook: &Isometry3<f64>) -> Result<Opt
     );
     Ok(Some(Next::Recover {
         actions,
-        then: raise_for_look::NAME,
+        then: AfterRecovery::Step(raise_for_look::NAME),
     }))
 }
 
@@ -111,7 +111,7 @@ pub(crate) fn toward_handle(task: &mut Task, grasp: &Isometry3<f64>) -> Result<O
     );
     Ok(Some(Next::Recover {
         actions,
-        then: look_handle::NAME,
+        then: AfterRecovery::Step(look_handle::NAME),
     }))
 }
 

@@ -317,19 +317,28 @@ fn a_swaying_hung_rod_is_waited_for() {
     assert_eq!(super::count(&rig, "recover", ARM_JOINT_TRAJECTORY), 0);
 }
 
+/// The last miss backs off the wire like the first, then refuses: the rod is not left
+/// hooked and unclamped with the gripper on it.
 #[test]
-fn a_hook_that_keeps_missing_fails_hook_missed() {
+fn a_hook_that_keeps_missing_backs_off_and_refuses_hook_missed() {
     let mut rig = Rig::with(TaskKind::Hang, |c, b| {
         c.self_maintenance = false;
         b.hook_hits = vec![false];
     });
     rig.run(LIMIT_S);
-    let last = assert_ended(&rig, TaskEvent::FAILED, "hook_missed");
+    let last = assert_ended(&rig, TaskEvent::REFUSED, "hook_missed");
     assert!(last.text.contains("2 attempts"), "{last:?}");
+    assert_eq!(last.state, "recover");
     assert_eq!(
         rig.steps().iter().filter(|s| *s == "close_clamp").count(),
         2
     );
+    // One retry, and both misses backed off the wire; only the retry raised the lift to
+    // look again.
+    assert_eq!(with_reason(&rig, "retry").len(), 1);
+    assert_eq!(rig.steps().iter().filter(|s| *s == "recover").count(), 2);
+    assert_eq!(super::count(&rig, "recover", ARM_JOINT_TRAJECTORY), 2);
+    assert_eq!(super::count(&rig, "recover", LIFT_COMMAND), 1);
 }
 
 #[test]
