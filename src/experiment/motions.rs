@@ -13,8 +13,8 @@ use anyhow::Result;
 use super::Settings;
 use super::noise::CellSummary;
 use super::noise::{
-    METHODS, SimContext, VIEWS, all_answered, all_answered_table, book_trials, box_plots,
-    error_table, refusal_table, run_trials,
+    METHODS, SimContext, TrialPlan, VIEWS, all_answered, all_answered_table, book_trials,
+    box_plots, error_table, refusal_table, run_trials,
 };
 use super::report::{Report, Results, fmt_pct};
 use super::stats::Summary;
@@ -37,19 +37,16 @@ pub fn run(settings: &Settings) -> Result<()> {
     let ctx = SimContext::new(settings)?;
     let counts: Vec<usize> = (MIN_VIEWS..=VIEWS).collect();
     let conditions: Vec<String> = counts.iter().map(|k| format!("{k}")).collect();
-    let records = run_trials(
-        settings,
-        &ctx,
-        "motions",
-        1,
+    let plan = TrialPlan {
+        name: "motions",
+        stream: 1,
         trials,
-        counts.len(),
-        None,
-        |seed, c| {
-            let k = counts.get(c).copied().unwrap_or(VIEWS);
-            (k, NOISE_SIGMA, sim::rng::key(seed, STREAM_NOISE, 0))
-        },
-    )?;
+        conditions: counts.len(),
+    };
+    let records = run_trials(settings, &ctx, plan, None, |seed, c| {
+        let k = counts.get(c).copied().unwrap_or(VIEWS);
+        (k, NOISE_SIGMA, sim::rng::key(seed, STREAM_NOISE, 0))
+    })?;
     let Some(records) = records else {
         return Ok(());
     };

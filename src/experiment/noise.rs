@@ -513,25 +513,42 @@ pub fn all_answered_table(
     (table, rows)
 }
 
-/// Runs the trials of `settings.mode` (all, one shard's, none when merging): each renders its
-/// [`VIEWS`] views once and runs the methods under each of `conditions` conditions, where
-/// `condition(seed, c)` gives the views used, the noise sigma and the noise seed. `stream`
-/// separates the experiments' trial seeds. With `peer`, the OpenCV depth-PnP peer runs on
-/// each condition's RGB-D views too. `None` for a shard run (its records were written).
+/// Which trials [`run_trials`] runs: `trials` trials of the experiment `name` (its progress
+/// bar), their seeds drawn from `stream` (which separates the experiments' trial seeds), each
+/// under `conditions` conditions.
+#[derive(Clone, Copy, Debug)]
+pub struct TrialPlan<'a> {
+    /// The experiment's name.
+    pub name: &'a str,
+    /// The trial seeds' stream ([`trial_seed`]).
+    pub stream: u64,
+    /// Trials.
+    pub trials: usize,
+    /// Conditions per trial.
+    pub conditions: usize,
+}
+
+/// Runs the trials of `plan` that `settings.mode` selects (all, one shard's, none when
+/// merging): each renders its [`VIEWS`] views once and runs the methods under each of the
+/// plan's conditions, where `condition(seed, c)` gives the views used, the noise sigma and the
+/// noise seed. With `peer`, the OpenCV depth-PnP peer runs on each condition's RGB-D views
+/// too. `None` for a shard run (its records were written).
 ///
 /// # Errors
 /// Rendering failures; writing or reading shard records; starting the peer.
-#[allow(clippy::too_many_arguments)]
 pub fn run_trials(
     settings: &Settings,
     ctx: &SimContext,
-    name: &str,
-    stream: u64,
-    trials: usize,
-    conditions: usize,
+    plan: TrialPlan<'_>,
     peer: Option<&Peer>,
     condition: impl Fn(u64, usize) -> (usize, f64, u64),
 ) -> Result<Option<Vec<TrialRecord>>> {
+    let TrialPlan {
+        name,
+        stream,
+        trials,
+        conditions,
+    } = plan;
     settings.run_items(trials, |ids| {
         let progress = Progress::new(name, (ids.len() * (1 + conditions)) as u64);
         let records = ids
@@ -1048,19 +1065,16 @@ pub fn run(settings: &Settings) -> Result<()> {
         .iter()
         .map(|s| format!("sigma={s:.2}"))
         .collect();
-    let records = run_trials(
-        settings,
-        &ctx,
-        "noise",
-        0,
+    let plan = TrialPlan {
+        name: "noise",
+        stream: 0,
         trials,
-        NOISE_SIGMAS.len(),
-        peer.as_ref(),
-        |seed, c| {
-            let sigma = NOISE_SIGMAS.get(c).copied().unwrap_or(0.0);
-            (VIEWS, sigma, sim::rng::key(seed, STREAM_NOISE, c as u64))
-        },
-    )?;
+        conditions: NOISE_SIGMAS.len(),
+    };
+    let records = run_trials(settings, &ctx, plan, peer.as_ref(), |seed, c| {
+        let sigma = NOISE_SIGMAS.get(c).copied().unwrap_or(0.0);
+        (VIEWS, sigma, sim::rng::key(seed, STREAM_NOISE, c as u64))
+    })?;
     let Some(records) = records else {
         return Ok(());
     };
