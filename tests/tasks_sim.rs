@@ -30,12 +30,19 @@ fn record(name: &str, out: &Path, sets: &[&str]) {
         args.push((*s).to_owned());
     }
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    let run = rodlog(&args);
+    run_ok(&args);
+}
+
+/// Runs `rodlog ARGS`, which must succeed.
+fn run_ok(args: &[&str]) -> std::process::Output {
+    let run = rodlog(args);
     assert!(
         run.status.success(),
-        "{}",
+        "rodlog {}: {}",
+        args.join(" "),
         String::from_utf8_lossy(&run.stderr)
     );
+    run
 }
 
 fn judge(rec: &Path) -> (bool, serde_json::Value) {
@@ -116,19 +123,11 @@ fn a_knocked_camera_is_noticed_recalibrated_and_the_rod_still_hung() {
     record("hang", &rec, &["panoramic.scale=0.5"]);
     let (ok, v) = judge(&rec);
     assert!(ok, "{v}");
-    let answers: Vec<(&str, &str)> = v["calibration"]
-        .as_array()
-        .map(|a| {
-            a.iter()
-                .map(|c| {
-                    (
-                        c["state"].as_str().unwrap_or(""),
-                        c["reason_code"].as_str().unwrap_or(""),
-                    )
-                })
-                .collect()
-        })
-        .unwrap_or_default();
+    let answers = calibration_answers(&v);
+    let answers: Vec<(&str, &str)> = answers
+        .iter()
+        .map(|(s, r)| (s.as_str(), r.as_str()))
+        .collect();
     assert_eq!(
         answers,
         [("check", "drifted"), ("calibrate", "accepted")],
@@ -152,6 +151,82 @@ fn a_knocked_camera_is_noticed_recalibrated_and_the_rod_still_hung() {
     );
     // The drift check, the 18 views, the solve and the hang after it replay identically.
     assert_replays_identically(&rec);
+}
+
+/// The verdicts of the calibration stage a judged run received, `(state, reason_code)`.
+fn calibration_answers(v: &serde_json::Value) -> Vec<(String, String)> {
+    v["calibration"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .map(|c| {
+                    (
+                        c["state"].as_str().unwrap_or("").to_owned(),
+                        c["reason_code"].as_str().unwrap_or("").to_owned(),
+                    )
+                })
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+#[test]
+fn a_calibration_carried_to_the_next_run_is_checked_not_redone() {
+    // The golden run found its bump and recalibrated; `calib carry` writes that calibration
+    // as parameters. The same bay and bump again, started from it: the drift check finds
+    // the mount where the carried calibration says, and the rod is hung without a second
+    // calibration (at camera.scale 0.5: the golden 0.2 is too coarse for the check to
+    // confirm a mount, it recalibrates after "cannot tell").
+    let golden = Path::new(env!("CARGO_MANIFEST_DIR")).join("recordings/hang.mcap");
+    let golden = golden.to_str().expect("utf-8");
+    let dir = tempfile::tempdir().expect("tmp");
+    let carried = dir.path().join("carried.toml");
+    run_ok(&[
+        "calib",
+        "carry",
+        golden,
+        "--out",
+        carried.to_str().expect("utf-8"),
+    ]);
+    let text = std::fs::read_to_string(&carried).expect("carried parameters");
+    let sets: Vec<String> = text
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
+        .map(|l| l.replacen(" = ", "=", 1))
+        .collect();
+    assert_eq!(sets.len(), 4, "{text}");
+    let rec = dir.path().join("carried.mcap");
+    let mut args = vec![
+        "record",
+        "--scenario",
+        golden,
+        "--until-done",
+        "--set",
+        "camera.scale=0.5",
+        "--out",
+        rec.to_str().expect("utf-8"),
+    ];
+    for s in &sets {
+        args.extend(["--set", s.as_str()]);
+    }
+    run_ok(&args);
+    let (ok, v) = judge(&rec);
+    assert!(ok, "{v}");
+    let answers = calibration_answers(&v);
+    assert_eq!(
+        answers.last().map(|(s, r)| (s.as_str(), r.as_str())),
+        Some(("check", "consistent")),
+        "{v}"
+    );
+    assert!(answers.iter().all(|(s, _)| s == "check"), "{v}");
+    assert_eq!(v["success"], true, "{v}");
+    assert_no_unsafe_command(&v);
+    assert_replays_identically(&rec);
+    // Nothing was accepted in this run: nothing to carry from it.
+    let none = rodlog(&["calib", "carry", rec.to_str().expect("utf-8")]);
+    assert!(!none.status.success());
+    let err = String::from_utf8_lossy(&none.stderr);
+    assert!(err.contains("no accepted self-calibration"), "{err}");
 }
 
 #[test]
@@ -215,18 +290,13 @@ fn the_judge_catches_a_colliding_command_and_commands_in_high_wind() {
     let file = dir.path().join("unsafe.toml");
     std::fs::write(&file, text).expect("write");
     let rec = dir.path().join("unsafe.mcap");
-    let run = rodlog(&[
+    run_ok(&[
         "record",
         "--scenario",
         file.to_str().expect("utf-8"),
         "--out",
         rec.to_str().expect("utf-8"),
     ]);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
     let (ok, v) = judge(&rec);
     assert!(!ok, "the judge passed an unsafe run: {v}");
     let unsafe_commands = v["unsafe_commands"].as_array().expect("list");

@@ -229,14 +229,19 @@ impl Plan {
             "perceive stage",
             (!perceive_enabled).then(|| "perceive.enabled = false".to_owned()),
         );
-        let perceive = PerceiveConfig::from_params(&mut r)?;
+        let mut perceive = PerceiveConfig::from_params(&mut r)?;
+        // The camera edge the calibration stage publishes from the start (nominal, or carried
+        // from an earlier run) is also what perception and the task assume before its first
+        // `/tf`.
+        perceive.nominal_tool0_from_camera = calibration.nominal_tool0_from_camera;
         let task_kind = TaskKind::parse(&task);
         sim_part(
             &mut r,
             "task stage",
             task_kind.is_none().then(|| format!("task = {task:?}")),
         );
-        let task_config = TaskConfig::from_params(&mut r, task_kind.unwrap_or(TaskKind::Hang))?;
+        let mut task_config = TaskConfig::from_params(&mut r, task_kind.unwrap_or(TaskKind::Hang))?;
+        task_config.nominal_tool0_from_camera = calibration.nominal_tool0_from_camera;
 
         let test_part = |r: &mut Reader<'_>, name: &str| {
             if kind == WorldKind::Test {

@@ -3,6 +3,9 @@
 //! `calib match` runs the calibration front end on two images: the tool a user reaches for
 //! when a calibration looks wrong.
 //!
+//! `calib carry` reads the self-calibration a run accepted and writes it as the next run's
+//! `calibration.mount_*` parameters ([`calib::selfcal::carry`]).
+//!
 //! `calib handeye` solves AX=XB from two TUM pose files: hand = `base_from_tool0`, eye =
 //! `world_from_camera`, paired by equal timestamp. The result is always
 //! **tool0_from_camera** (maps camera coordinates to tool0 coordinates).
@@ -30,6 +33,21 @@ pub enum CalibCommand {
     /// RGB-D when depth is recorded, monocular otherwise.
     #[command(name = "self")]
     SelfCal(SelfArgs),
+    /// The self-calibration a run accepted, as the next run's parameters
+    /// (`calibration.mount_*`): the robot then starts from it instead of the nominal mount.
+    Carry(CarryArgs),
+}
+
+/// Arguments of `rodlog calib carry`.
+#[derive(Debug, Args)]
+pub struct CarryArgs {
+    /// Recording of a run whose calibration stage accepted a self-calibration
+    /// (`/calibration/hand_eye`, and the camera edge on `/tf`).
+    pub rec: PathBuf,
+    /// Write the parameters to this file (TOML lines for a scenario's `[parameters]`) instead
+    /// of stdout.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
 }
 
 /// Arguments of `rodlog calib self`.
@@ -186,6 +204,56 @@ pub fn run(command: &CalibCommand) -> Result<()> {
         CalibCommand::Match(args) => match_images(args),
         CalibCommand::Board(args) => board(args),
         CalibCommand::SelfCal(args) => self_calibration(args),
+        CalibCommand::Carry(args) => carry(args),
+    }
+}
+
+/// `calib carry`: the last accepted self-calibration of a recording
+/// ([`calib::selfcal::AcceptedFinder`]) as parameters.
+fn carry(args: &CarryArgs) -> Result<()> {
+    use calib::selfcal::AcceptedFinder;
+    use replay::{McapReader, ReadFilter};
+
+    let mut reader = McapReader::open(&args.rec)
+        .with_context(|| format!("cannot read {}", args.rec.display()))?;
+    let mut finder = AcceptedFinder::new();
+    for m in reader.messages(&ReadFilter::all().with_topics(AcceptedFinder::TOPICS)) {
+        let m = m.with_context(|| format!("reading {}", args.rec.display()))?;
+        let msg = m.decode().with_context(|| {
+            format!(
+                "{}: {} at {} ns",
+                args.rec.display(),
+                m.topic(),
+                m.log_time_ns
+            )
+        })?;
+        finder.feed(m.log_time_ns, m.topic(), &msg);
+    }
+    let results = finder.results();
+    let Some(accepted) = finder.finish() else {
+        bail!(
+            "{}: no accepted self-calibration to carry ({results} results on /calibration/hand_eye, none became the camera edge on /tf): the run kept the camera edge it started with",
+            args.rec.display()
+        );
+    };
+    let h = &accepted.message;
+    let text = format!(
+        "# rodlog calib carry {}: the self-calibration accepted at {:.3} s ({}, {}, {} views; sigma {:.4} deg / {:.3} mm over the three axes).\n\
+         # Under the next run's [parameters], or each line as --set KEY=VALUE.\n{}",
+        args.rec.display(),
+        accepted.log_time_ns as f64 * 1e-9,
+        h.method,
+        h.mode,
+        h.views,
+        h.sigma_rot_deg,
+        h.sigma_trans_mm,
+        accepted.parameters_toml()
+    );
+    match &args.out {
+        Some(path) => {
+            std::fs::write(path, &text).with_context(|| format!("cannot write {}", path.display()))
+        }
+        None => super::print_stdout(text.trim_end()),
     }
 }
 

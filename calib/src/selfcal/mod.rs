@@ -103,6 +103,7 @@
 //! same stamp ([`messages`]). Ground truth (`/sim/...`) is never read.
 
 pub mod ba;
+pub mod carry;
 pub mod drift;
 pub mod epipolar;
 pub mod eq15;
@@ -118,6 +119,7 @@ pub mod tracks;
 pub mod views;
 pub mod yaml;
 
+pub use carry::{AcceptedCalibration, AcceptedFinder};
 pub use drift::{CHECK_MOTION, CannotTell, DriftParams, DriftReport, DriftVerdict, check_drift};
 pub use messages::views_from_messages;
 pub use method::{FinalRefinement, STEP_NAMES, SelfCalMethod, Steps};

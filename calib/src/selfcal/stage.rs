@@ -14,7 +14,7 @@
 //!
 //! | out | when |
 //! |---|---|
-//! | `/tf` | with every `/joint_states` of a new stamp: the nominal mount ([`robot::camera_mount`]) until a calibration is accepted, then the accepted `tool0_from_camera`, stamped with the JointState's stamp |
+//! | `/tf` | with every `/joint_states` of a new stamp: the nominal mount ([`robot::camera_mount`]), or a calibration carried from an earlier run (`calibration.mount_xyz_m`, `mount_rpy_deg`: `rodlog calib carry`), until a calibration is accepted, then the accepted `tool0_from_camera`, stamped with the JointState's stamp |
 //! | `/calibration/hand_eye` | each self-calibration that succeeds (quality and 1-sigma uncertainty filled, [`hand_eye_msg`]) |
 //! | `/calibration/matches` | with it: one message per candidate view pair, its GMS matches, flagged `inlier` when consistent with the pair's estimated camera motion (RANSAC verdict) |
 //! | `/rosout` | every view skipped and every refusal, saying what to do; the acceptance |
@@ -111,8 +111,15 @@ pub struct CalibrationStageConfig {
     /// Output latency added to the trigger's log time. Default 5 ms.
     pub latency: RobotDuration,
     /// The camera edge published until a calibration is accepted. Default the robot model's
-    /// nominal mount ([`robot::camera_mount::nominal_tool0_from_camera`]).
+    /// nominal mount ([`robot::camera_mount::nominal_tool0_from_camera`]); a calibration
+    /// carried from an earlier run (`calibration.mount_xyz_m`, `calibration.mount_rpy_deg`,
+    /// written by `rodlog calib carry`) replaces it.
     pub nominal_tool0_from_camera: Isometry3<f64>,
+    /// The 1-sigma per axis of [`Self::nominal_tool0_from_camera`] when it is a carried
+    /// calibration, `(deg, mm)`: the drift check's `x_sigma` until a calibration is accepted
+    /// here. Default `None`: the drift check takes a typical self-calibration's
+    /// ([`DriftParams::default`]).
+    pub mount_sigma: Option<(f64, f64)>,
     /// Parent frame of the hand pose. Default `base_link`.
     pub hand_parent_frame: String,
     /// Child frame of the hand pose. Default `tool0`.
@@ -156,6 +163,7 @@ impl Default for CalibrationStageConfig {
         Self {
             latency: RobotDuration::from_millis(5),
             nominal_tool0_from_camera: robot::camera_mount::nominal_tool0_from_camera(),
+            mount_sigma: None,
             hand_parent_frame: BASE_LINK.to_owned(),
             hand_child_frame: TOOL0.to_owned(),
             captures_to_solve: 18,
@@ -204,7 +212,68 @@ impl CalibrationStageConfig {
             ],
             "ORB keypoint selection: the method's own (ours: retain-best; the paper's: quadtree), or one by name",
         )?;
+        let mount_xyz_m = s.f64s_opt::<3>(
+            "mount_xyz_m",
+            "the robot model's nominal mount",
+            "m",
+            "the camera edge tool0 -> camera_color_optical_frame in use at start, a calibration carried from an earlier run (`rodlog calib carry REC.mcap` writes it): translation",
+        )?;
+        let mount_rpy_deg = s.f64s_opt::<3>(
+            "mount_rpy_deg",
+            "the robot model's nominal mount",
+            "deg",
+            "... its rotation, roll-pitch-yaw about the fixed x, y, z axes",
+        )?;
+        let mount_sigma_rot_deg = s.f64_opt(
+            "mount_sigma_rot_deg",
+            "a typical self-calibration's (the drift check's default)",
+            "deg",
+            "... its 1-sigma rotation per axis: the drift check's uncertainty of the X in use",
+        )?;
+        let mount_sigma_trans_mm = s.f64_opt(
+            "mount_sigma_trans_mm",
+            "a typical self-calibration's (the drift check's default)",
+            "mm",
+            "... its 1-sigma translation per axis",
+        )?;
+        let nominal_tool0_from_camera = match (mount_xyz_m, mount_rpy_deg) {
+            (Some(xyz), Some(rpy)) => robot::camera_mount::mount_from_xyz_rpy(xyz, rpy),
+            (None, None) => d.nominal_tool0_from_camera,
+            (xyz, _) => {
+                return Err(scenario::ParamError::Value {
+                    key: if xyz.is_some() {
+                        "calibration.mount_rpy_deg"
+                    } else {
+                        "calibration.mount_xyz_m"
+                    }
+                    .to_owned(),
+                    value: "(missing)".to_owned(),
+                    reason: "calibration.mount_xyz_m and calibration.mount_rpy_deg come together (a carried calibration is a whole pose): give both, or neither for the nominal mount".to_owned(),
+                });
+            }
+        };
+        let mount_sigma = match (mount_sigma_rot_deg, mount_sigma_trans_mm) {
+            (None, None) => None,
+            (Some(rot), Some(trans))
+                if mount_xyz_m.is_some()
+                    && rot.is_finite()
+                    && trans.is_finite()
+                    && rot > 0.0
+                    && trans > 0.0 =>
+            {
+                Some((rot, trans))
+            }
+            (rot, trans) => {
+                return Err(scenario::ParamError::Value {
+                    key: "calibration.mount_sigma_rot_deg".to_owned(),
+                    value: format!("{rot:?} deg, with mount_sigma_trans_mm {trans:?} mm"),
+                    reason: "the carried calibration's 1-sigma needs both figures, positive, and the carried mount itself (calibration.mount_xyz_m, calibration.mount_rpy_deg)".to_owned(),
+                });
+            }
+        };
         Ok(Self {
+            nominal_tool0_from_camera,
+            mount_sigma,
             latency: s.millis("latency_ms", d.latency, "stage latency")?,
             captures_to_solve: s.count(
                 "captures",
@@ -323,7 +392,10 @@ impl CalibrationStage {
         Self {
             tf: TfBuffer::new(config.tf_history_ns),
             tool0_from_camera: config.nominal_tool0_from_camera,
-            x_covariance: None,
+            x_covariance: config.mount_sigma.map(|(rot_deg, trans_mm)| {
+                let (r, t) = (rot_deg.to_radians().powi(2), (trans_mm * 1e-3).powi(2));
+                Matrix6::from_diagonal(&nalgebra::Vector6::new(r, r, r, t, t, t))
+            }),
             config,
             camera: None,
             pending: Vec::new(),
@@ -354,6 +426,19 @@ impl CalibrationStage {
     #[must_use]
     pub fn views(&self) -> usize {
         self.views.len()
+    }
+
+    /// What the camera edge in use is, for the log.
+    fn edge_in_use(&self) -> &'static str {
+        if self.accepted > 0 {
+            "the last accepted calibration"
+        } else if self.config.nominal_tool0_from_camera
+            == robot::camera_mount::nominal_tool0_from_camera()
+        {
+            "the nominal mount"
+        } else {
+            "the calibration carried from an earlier run"
+        }
     }
 
     fn log(level: u8, log_time: RobotTime, text: String) -> (String, Msg) {
@@ -704,11 +789,7 @@ impl CalibrationStage {
             Err(e) => {
                 let text = format!(
                     "self-calibration refused ({kept} views of {captures} captures): {e}; the camera edge stays {}",
-                    if self.accepted > 0 {
-                        "the last accepted calibration"
-                    } else {
-                        "the nominal mount"
-                    }
+                    self.edge_in_use()
                 );
                 out.push(Self::log(Log::ERROR, log_time, text.clone()));
                 return Outcome::Refused(text);
@@ -861,12 +942,16 @@ impl CalibrationStage {
             selfcal: super::drift::drift_front_end(self.selfcal_params(&camera)),
             ..DriftParams::default()
         };
-        let x_source = match &self.x_covariance {
-            Some(cov) => {
+        let x_source = match (&self.x_covariance, self.accepted) {
+            (Some(cov), 0) => {
+                params = params.with_x_covariance(cov);
+                "carried with it: calibration.mount_sigma_*"
+            }
+            (Some(cov), _) => {
                 params = params.with_x_covariance(cov);
                 "from its calibration's covariance"
             }
-            None => "a typical self-calibration's: this X came with no covariance",
+            (None, _) => "a typical self-calibration's: this X came with no covariance",
         };
         let report = check_drift(&self.views, &camera, &self.tool0_from_camera, &params);
         let numbers = report.estimate.as_ref().map_or_else(String::new, |e| {
