@@ -214,25 +214,30 @@ impl CalibrationStageConfig {
         )?;
         let mount_xyz_m = s.f64s_opt::<3>(
             "mount_xyz_m",
-            "the robot model's nominal mount",
+            "nominal mount",
             "m",
             "the camera edge tool0 -> camera_color_optical_frame in use at start, a calibration carried from an earlier run (`rodlog calib carry REC.mcap` writes it): translation",
         )?;
         let mount_rpy_deg = s.f64s_opt::<3>(
             "mount_rpy_deg",
-            "the robot model's nominal mount",
+            "nominal mount",
             "deg",
             "... its rotation, roll-pitch-yaw about the fixed x, y, z axes",
         )?;
+        let typical = DriftParams::default();
+        let typical = format!(
+            "typical: {} deg / {} mm",
+            typical.x_sigma_rot_deg, typical.x_sigma_trans_mm
+        );
         let mount_sigma_rot_deg = s.f64_opt(
             "mount_sigma_rot_deg",
-            "a typical self-calibration's (the drift check's default)",
+            &typical,
             "deg",
             "... its 1-sigma rotation per axis: the drift check's uncertainty of the X in use",
         )?;
         let mount_sigma_trans_mm = s.f64_opt(
             "mount_sigma_trans_mm",
-            "a typical self-calibration's (the drift check's default)",
+            &typical,
             "mm",
             "... its 1-sigma translation per axis",
         )?;
