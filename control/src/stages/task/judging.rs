@@ -49,7 +49,7 @@ use super::memory::{HandleSite, Rod};
 use super::steps::{
     capture_empty_rack, capture_handle, capture_rack, capture_wire, capture_wire_more, check_more,
     close_clamp, grasp_handle, grasp_rack, look_handle, look_rack, look_wire, recalibrate,
-    reposition,
+    reposition, to_pre_approach,
 };
 use crate::perception::PerceptionError;
 use crate::perception::handle::{CutEnd, ViewWindow, fit_handle};
@@ -803,9 +803,12 @@ impl Task {
         );
         // Open and back off across the wire; then raise to look again, or stop there: after
         // the last miss, or when the raise is refused (the rod stays clear of the wire).
+        // As far as the approach came from: in a swinging wire's band a shorter back-off
+        // leaves the rod too close to the wire to raise it.
+        let back_m = to_pre_approach::approach_distance_m(self);
         let p = self.planner();
         let (plan, q_back) = p.back_off(
-            self.config.approach_m,
+            back_m,
             &[("rod_head", TARGET_WIRE)],
             "back off after a miss",
         )?;

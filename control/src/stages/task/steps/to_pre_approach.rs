@@ -73,6 +73,15 @@ pub(crate) fn hang_lifts(
     (candidates, first_refusal)
 }
 
+/// How far from the hook goal the pre-approach stands (m), along the approach: the
+/// configured `approach_m`, and back by the sway's band beyond the still-air margin so that
+/// the hook is lowered clear of the swinging wire. A missed hook backs off as far: the
+/// raise to look again starts where the pre-approach stood.
+pub(crate) fn approach_distance_m(task: &Task) -> f64 {
+    task.config.approach_m
+        + (task.memory.conductor_sway_margin_m - CONDUCTOR_SWAY_MARGIN_M).max(0.0)
+}
+
 fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
     let p = task.planner();
     let q = p.q()?;
@@ -82,10 +91,7 @@ fn plan(task: &mut Task) -> Result<Vec<Action>, Stop> {
         .hook_goal
         .ok_or_else(|| Stop::failed("no_target", "no hook goal"))?;
     let tool_hang = poses::tool0_for_hook(&hook);
-    // Back by the sway's band beyond the still-air margin, so that the hook is lowered
-    // clear of the swinging wire.
-    let approach_m = task.config.approach_m
-        + (task.memory.conductor_sway_margin_m - CONDUCTOR_SWAY_MARGIN_M).max(0.0);
+    let approach_m = approach_distance_m(task);
     let beyond =
         poses::tool0_for_hook(&(hook * Isometry3::translation(APPROACH_REACH_MARGIN_M, 0.0, 0.0)));
     let world = p.world(lift)?;

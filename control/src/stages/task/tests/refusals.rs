@@ -525,3 +525,28 @@ fn a_gust_within_the_settling_time_starts_a_new_hold_and_a_new_wait() {
         "first command after the gusts at {first} s"
     );
 }
+
+/// In a swinging wire the pre-approach stands back by the sway's band; a miss backs off as
+/// far, so the raise to look again clears the band and the second hook lands. (Backed off by
+/// `approach_m` alone, the rod head was 19 mm from the wire and the raise was refused.)
+#[test]
+fn a_miss_in_a_swinging_wire_backs_off_past_its_band_and_the_second_hook_lands() {
+    let mut rig = Rig::with(TaskKind::Hang, |c, b| {
+        c.self_maintenance = false;
+        b.wire_sway_m = 0.012;
+        b.hook_hits = vec![false, true];
+    });
+    rig.run(LIMIT_S);
+    assert_done(&rig);
+    let sway = with_reason(&rig, "wire_sway");
+    assert!(
+        sway.iter().any(|e| e.text.contains("kept 36 mm clear")),
+        "{sway:#?}"
+    );
+    assert_eq!(with_reason(&rig, "retry").len(), 1);
+    assert_eq!(
+        rig.steps().iter().filter(|s| *s == "close_clamp").count(),
+        2
+    );
+    assert_eq!(super::count(&rig, "recover", LIFT_COMMAND), 1);
+}
