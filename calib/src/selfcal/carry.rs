@@ -24,9 +24,9 @@ use msgs::topics;
 use robot::camera_mount::{MOUNT_CHILD_FRAME, MOUNT_PARENT_FRAME};
 use robot::conversions::isometry_from_msg;
 
-/// Largest difference (m, or unit-quaternion component) between a result and the camera
-/// edge for the edge to be that result: the stage publishes the very same numbers.
-pub const SAME_EDGE_EPS: f64 = 1e-9;
+/// Largest difference between a result and the camera edge for the edge to be that result
+/// (deg, m): the stage publishes the very same numbers, so only rounding separates them.
+pub const SAME_EDGE: (f64, f64) = (1e-6, 1e-9);
 
 /// A self-calibration the calibration stage accepted (module docs).
 #[derive(Debug, Clone, PartialEq)]
@@ -145,9 +145,8 @@ impl AcceptedFinder {
 }
 
 fn same_pose(a: &Isometry3<f64>, b: &Isometry3<f64>) -> bool {
-    let dq = a.rotation.coords - b.rotation.coords;
-    (a.translation.vector - b.translation.vector).amax() <= SAME_EDGE_EPS
-        && dq.amax() <= SAME_EDGE_EPS
+    let (rot_deg, trans_m) = crate::handeye::pose_error(a, b);
+    rot_deg <= SAME_EDGE.0 && trans_m <= SAME_EDGE.1
 }
 
 #[cfg(test)]

@@ -123,12 +123,20 @@ impl SharedHandError {
         trans_mm: 0.3,
     };
 
-    /// `diag(sigma_R^2 I_3, sigma_t^2 I_3)`, parameters `(theta, t)` in rad and m.
+    /// `diag(sigma_R^2 I_3, sigma_t^2 I_3)`, parameters `(theta, t)` in rad and m
+    /// ([`per_axis_covariance`]).
     pub fn covariance(&self) -> Matrix6<f64> {
-        let r = self.rot_deg.to_radians().powi(2);
-        let t = (self.trans_mm * 1e-3).powi(2);
-        Matrix6::from_diagonal(&Vector6::new(r, r, r, t, t, t))
+        per_axis_covariance(self.rot_deg, self.trans_mm)
     }
+}
+
+/// The covariance of an X known to `rot_deg` / `trans_mm` (1-sigma per axis, the same on
+/// each): `diag(sigma_R^2 I_3, sigma_t^2 I_3)`, parameters `(theta, t)` in rad and m.
+#[must_use]
+pub fn per_axis_covariance(rot_deg: f64, trans_mm: f64) -> Matrix6<f64> {
+    let r = rot_deg.to_radians().powi(2);
+    let t = (trans_mm * 1e-3).powi(2);
+    Matrix6::from_diagonal(&Vector6::new(r, r, r, t, t, t))
 }
 
 /// The consistency refusal of the final X (never a wrong X): [`self_calibrate`]

@@ -397,10 +397,9 @@ impl CalibrationStage {
         Self {
             tf: TfBuffer::new(config.tf_history_ns),
             tool0_from_camera: config.nominal_tool0_from_camera,
-            x_covariance: config.mount_sigma.map(|(rot_deg, trans_mm)| {
-                let (r, t) = (rot_deg.to_radians().powi(2), (trans_mm * 1e-3).powi(2));
-                Matrix6::from_diagonal(&nalgebra::Vector6::new(r, r, r, t, t, t))
-            }),
+            x_covariance: config
+                .mount_sigma
+                .map(|(rot_deg, trans_mm)| super::pipeline::per_axis_covariance(rot_deg, trans_mm)),
             config,
             camera: None,
             pending: Vec::new(),
