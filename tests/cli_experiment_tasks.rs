@@ -42,6 +42,18 @@ fn task_experiments_smoke_runs() {
     let bins = maintenance["sections"]["bins"].as_array().expect("bins");
     assert_eq!(bins.len(), 13, "{maintenance}");
     assert!(bins.iter().all(|b| b["runs"] == 1), "{maintenance}");
+    // The robot's reference run (unbumped, another day) found its mount consistent, and
+    // every bin's check compares with the reference it left.
+    assert!(
+        bins.iter().all(|b| b["from_reference"] == 1),
+        "{maintenance}"
+    );
+    assert_eq!(
+        maintenance["sections"]["references"][0][1], true,
+        "{maintenance}"
+    );
+    let unbumped = bins.iter().find(|b| b["bin"] == "none").expect("bin");
+    assert_eq!(unbumped["consistent"], 1, "{maintenance}");
     // A 3 deg + 10 mm knock is never missed.
     let big = bins
         .iter()

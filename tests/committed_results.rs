@@ -106,8 +106,8 @@ fn committed_reports_say_what_their_results_say() {
                 );
             }
         } else {
-            // The maintenance experiment: | bin | runs | no check | drifted | consistent
-            // | cannot tell | 4 views: cannot tell | looked again | ...
+            // The maintenance experiment: | bin | runs | against a reference | no check
+            // | drifted | consistent | cannot tell | 4 views: cannot tell | looked again | ...
             let bins = sections["bins"].as_array().unwrap_or_else(|| {
                 panic!(
                     "{}: none of groups, cells, variants, summary or bins",
@@ -121,7 +121,13 @@ fn committed_reports_say_what_their_results_say() {
                     m.values().filter_map(serde_json::Value::as_u64).sum()
                 });
                 assert_eq!(
-                    row.get(3)
+                    row.get(3).map(String::as_str),
+                    Some(b["from_reference"].to_string().as_str()),
+                    "{}: from_reference of {row:?}",
+                    dir.display()
+                );
+                assert_eq!(
+                    row.get(4)
                         .and_then(|c| c.split(' ').next())
                         .map(str::to_owned),
                     Some(not_checked.to_string()),
@@ -129,11 +135,11 @@ fn committed_reports_say_what_their_results_say() {
                     dir.display()
                 );
                 for (k, key) in [
-                    (4, "drifted"),
-                    (5, "consistent"),
-                    (6, "cannot_tell"),
-                    (7, "first_cannot_tell"),
-                    (8, "extended"),
+                    (5, "drifted"),
+                    (6, "consistent"),
+                    (7, "cannot_tell"),
+                    (8, "first_cannot_tell"),
+                    (9, "extended"),
                 ] {
                     assert_eq!(
                         row.get(k).map(String::as_str),

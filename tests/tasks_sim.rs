@@ -176,41 +176,43 @@ fn a_calibration_carried_to_the_next_run_is_checked_not_redone() {
     // as parameters. The same bay and bump again, started from it: the drift check finds
     // the mount where the carried calibration says, and the rod is hung without a second
     // calibration (at camera.scale 0.5: the golden 0.2 is too coarse for the check to
-    // confirm a mount, it recalibrates after "cannot tell").
+    // confirm a mount, it recalibrates after "cannot tell"). That run's check leaves its
+    // reference, and a third day's check compares with it.
     let golden = Path::new(env!("CARGO_MANIFEST_DIR")).join("recordings/hang.mcap");
-    let golden = golden.to_str().expect("utf-8");
     let dir = tempfile::tempdir().expect("tmp");
-    let carried = dir.path().join("carried.toml");
-    run_ok(&[
-        "calib",
-        "carry",
-        golden,
-        "--out",
-        carried.to_str().expect("utf-8"),
-    ]);
-    let text = std::fs::read_to_string(&carried).expect("carried parameters");
-    let sets: Vec<String> = text
-        .lines()
-        .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
-        .map(|l| l.replacen(" = ", "=", 1))
-        .collect();
+    let (text, sets) = carry(&golden, &dir.path().join("carried.toml"));
     assert_eq!(sets.len(), 4, "{text}");
     let rec = dir.path().join("carried.mcap");
-    let mut args = vec![
-        "record",
-        "--scenario",
-        golden,
-        "--until-done",
-        "--set",
-        "camera.scale=0.5",
-        "--out",
-        rec.to_str().expect("utf-8"),
-    ];
-    for s in &sets {
-        args.extend(["--set", s.as_str()]);
-    }
-    run_ok(&args);
-    let (ok, v) = judge(&rec);
+    record_golden_with(&golden, &rec, &[], &sets);
+    let (v, answers) = judged_consistent(&rec);
+    assert!(answers.iter().all(|(s, _)| s == "check"), "{v}");
+    assert_eq!(v["success"], true, "{v}");
+    assert_no_unsafe_command(&v);
+    assert_replays_identically(&rec);
+    // Nothing was accepted in this run, but its check found the carried mount consistent:
+    // the run leaves that mount and the check's reference.
+    let (text, sets) = carry(&rec, &dir.path().join("reference.toml"));
+    assert_eq!(
+        sets.len(),
+        4,
+        "mount and reference, no sigma (none accepted): {text}"
+    );
+    assert!(text.contains("calibration.reference_xyz_m"), "{text}");
+    assert!(text.contains("the camera edge the run kept"), "{text}");
+    // Another day of the same robot (other sensor noise), a check only: it compares with
+    // the reference and finds the mount where it was.
+    let day3 = dir.path().join("day3.mcap");
+    record_golden_with(&golden, &day3, &["task=check", "noise_seed=7"], &sets);
+    judged_consistent(&day3);
+    let log = rodlog(&["log", day3.to_str().expect("utf-8")]);
+    let log = String::from_utf8_lossy(&log.stdout);
+    assert!(log.contains("against the reference carried"), "{log}");
+    assert_replays_identically(&day3);
+}
+
+/// The judge's verdict of `rec` and its calibration answers, the last a consistent check.
+fn judged_consistent(rec: &Path) -> (serde_json::Value, Vec<(String, String)>) {
+    let (ok, v) = judge(rec);
     assert!(ok, "{v}");
     let answers = calibration_answers(&v);
     assert_eq!(
@@ -218,15 +220,48 @@ fn a_calibration_carried_to_the_next_run_is_checked_not_redone() {
         Some(("check", "consistent")),
         "{v}"
     );
-    assert!(answers.iter().all(|(s, _)| s == "check"), "{v}");
-    assert_eq!(v["success"], true, "{v}");
-    assert_no_unsafe_command(&v);
-    assert_replays_identically(&rec);
-    // Nothing was accepted in this run: nothing to carry from it.
-    let none = rodlog(&["calib", "carry", rec.to_str().expect("utf-8")]);
-    assert!(!none.status.success());
-    let err = String::from_utf8_lossy(&none.stderr);
-    assert!(err.contains("no accepted self-calibration"), "{err}");
+    (v, answers)
+}
+
+/// `rodlog calib carry REC --out FILE`: the file's text and its lines as `--set` values.
+fn carry(rec: &Path, out: &Path) -> (String, Vec<String>) {
+    run_ok(&[
+        "calib",
+        "carry",
+        rec.to_str().expect("utf-8"),
+        "--out",
+        out.to_str().expect("utf-8"),
+    ]);
+    let text = std::fs::read_to_string(out).expect("carried parameters");
+    let sets = text
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
+        .map(|l| l.replacen(" = ", "=", 1))
+        .collect();
+    (text, sets)
+}
+
+/// The golden recording's scenario again at camera.scale 0.5, with `extra` and `carried`
+/// as `--set`s, into `out`.
+fn record_golden_with(golden: &Path, out: &Path, extra: &[&str], carried: &[String]) {
+    let mut args = vec![
+        "record",
+        "--scenario",
+        golden.to_str().expect("utf-8"),
+        "--until-done",
+        "--set",
+        "camera.scale=0.5",
+        "--out",
+        out.to_str().expect("utf-8"),
+    ];
+    for s in extra
+        .iter()
+        .copied()
+        .chain(carried.iter().map(String::as_str))
+    {
+        args.extend(["--set", s]);
+    }
+    run_ok(&args);
 }
 
 #[test]
@@ -247,6 +282,11 @@ fn a_windy_start_is_waited_for_then_refused_without_a_command() {
     assert_eq!(text.matches("[holding_for_wind]").count(), 1, "{text}");
     assert!(text.contains("held 6"), "{text}");
     assert!(text.contains("wind_above_limit"), "{text}");
+    // No calibration and no check: nothing to carry, and `calib carry` says so.
+    let none = rodlog(&["calib", "carry", rec.to_str().expect("utf-8")]);
+    assert!(!none.status.success());
+    let err = String::from_utf8_lossy(&none.stderr);
+    assert!(err.contains("nothing to carry"), "{err}");
 }
 
 #[test]

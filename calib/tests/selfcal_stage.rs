@@ -419,3 +419,109 @@ fn the_drift_check_uses_the_covariance_of_the_calibration_it_checks() {
     );
     assert!(after.contains("where the calibration says"), "{after}");
 }
+
+/// A `check` batch of `views` `shift_ns` later, solved; the stage's outputs of the batch.
+fn check_batch(h: &mut Harness, views: &[CalibView], shift_ns: u64) -> Vec<(String, Msg)> {
+    let command = |c: &str| Msg::String(msgs::std_msgs::String { data: c.to_owned() });
+    let before = h.out.len();
+    h.feed(shift_ns, topics::CALIBRATION_COMMAND, &command("check"));
+    for v in views {
+        let mut later = v.clone();
+        later.stamp_ns += shift_ns;
+        h.capture(&later, Some(&later.base_from_tool0), Some(later.stamp_ns));
+    }
+    h.feed(
+        shift_ns + 100_000_000_000,
+        topics::CALIBRATION_COMMAND,
+        &command("solve"),
+    );
+    h.out[before..].to_vec()
+}
+
+/// The check's answer (`reason_code`) and the references it published.
+fn check_answer(out: &[(String, Msg)]) -> (String, String, Vec<Isometry3<f64>>) {
+    let answer = out
+        .iter()
+        .find_map(|(t, m)| match m {
+            Msg::TaskEvent(e) if t == topics::TASK_EVENT => {
+                Some((e.reason_code.clone(), e.text.clone()))
+            }
+            _ => None,
+        })
+        .expect("an answer");
+    let references = out
+        .iter()
+        .filter_map(|(t, m)| match m {
+            Msg::TransformStamped(r) if t == topics::CALIBRATION_CHECK_REFERENCE => {
+                assert_eq!(r.header.frame_id, TOOL0);
+                assert_eq!(r.child_frame_id, CAMERA_COLOR_OPTICAL_FRAME);
+                Some(robot::conversions::isometry_from_msg(&r.transform).expect("finite"))
+            }
+            _ => None,
+        })
+        .collect();
+    (answer.0, answer.1, references)
+}
+
+/// A consistent check publishes the X its views support as the reference; a run given that
+/// reference compares with it, publishes the very same reference again (never its own
+/// estimate), and a reference from before a 3 mm knock makes the check say `drifted`.
+#[test]
+fn a_check_reference_is_taken_then_kept_and_a_knock_since_it_shows() {
+    let x_true = sup::true_x();
+    let (views, cam) = sup::views(&sup::camera_poses(8), &x_true, true);
+    let stage = |reference: Option<Isometry3<f64>>| {
+        let mut h = Harness::new(CalibrationStageConfig {
+            captures_to_solve: 0,
+            nominal_tool0_from_camera: x_true,
+            check_reference: reference,
+            ..CalibrationStageConfig::default()
+        });
+        h.feed(500_000_000, topics::CAMERA_COLOR_INFO, &camera_info(&cam));
+        h
+    };
+
+    let (code, text, taken) =
+        check_answer(&check_batch(&mut stage(None), &views, 1_000_000_000_000));
+    assert_eq!(code, "consistent", "{text}");
+    assert!(text.contains("is now the check's reference"), "{text}");
+    assert_eq!(taken.len(), 1, "{text}");
+    let (rot_deg, trans_m) = pose_error(&taken[0], &x_true);
+    assert!(
+        rot_deg < 0.1 && trans_m < 1e-3,
+        "{rot_deg} deg, {trans_m} m"
+    );
+    assert!(
+        rot_deg > 0.0 || trans_m > 0.0,
+        "the views' own estimate, not the edge"
+    );
+
+    // Later, against a reference 0.3 mm from it (within the check's noise): that same
+    // reference again, not these views' estimate.
+    let reference = Isometry3::from_parts(
+        (taken[0].translation.vector + Vector3::new(0.0003, 0.0, 0.0)).into(),
+        taken[0].rotation,
+    );
+    let (code, text, kept) = check_answer(&check_batch(
+        &mut stage(Some(reference)),
+        &views,
+        1_000_000_000_000,
+    ));
+    assert_eq!(code, "consistent", "{text}");
+    assert!(text.contains("against the reference carried"), "{text}");
+    assert!(text.contains("calibration.reference_*"), "{text}");
+    assert_edges(&kept, &[reference]);
+
+    // A reference taken before the mount moved by 3 mm: the views now disagree with it.
+    let before_knock = Isometry3::from_parts(
+        (x_true.translation.vector + Vector3::new(0.0021, -0.0015, 0.0015)).into(),
+        x_true.rotation,
+    );
+    let (code, text, none) = check_answer(&check_batch(
+        &mut stage(Some(before_knock)),
+        &views,
+        1_000_000_000_000,
+    ));
+    assert_eq!(code, "drifted", "{text}");
+    assert!(none.is_empty(), "no reference after a drift: {text}");
+}

@@ -54,6 +54,12 @@ pub const PERCEPTION_TARGET_POSE: &str = "/perception/target_pose";
 pub const CALIBRATION_MATCHES: &str = "/calibration/matches";
 /// Hand-eye calibration results.
 pub const CALIBRATION_HAND_EYE: &str = "/calibration/hand_eye";
+/// The drift check's reference (geometry_msgs/TransformStamped, `tool0 ->
+/// camera_color_optical_frame`): after a check that found the camera edge in use consistent,
+/// the `X` its views support at the check poses, which later checks at those poses compare
+/// with (`rodlog calib carry` carries it to the next run). A project topic beside
+/// ARCHITECTURE.md section 3's.
+pub const CALIBRATION_CHECK_REFERENCE: &str = "/calibration/check_reference";
 /// Requests to the calibration stage (std_msgs/String): `check` (the next captures are drift
 /// check views), `collect` (the next captures are calibration views), `solve` (check or
 /// calibrate the batch now), `cancel`. The stage answers on [`TASK_EVENT`] (task
@@ -213,6 +219,11 @@ static REGISTRY: &[TopicSpec] = &[
         rodlog_msgs::HandEyeCalibration::TYPE_NAME,
         false,
     ),
+    spec(
+        CALIBRATION_CHECK_REFERENCE,
+        geometry_msgs::TransformStamped::TYPE_NAME,
+        false,
+    ),
     spec(CALIBRATION_COMMAND, std_msgs::String::TYPE_NAME, false),
     spec(TASK_EVENT, rodlog_msgs::TaskEvent::TYPE_NAME, false),
     spec(ENV_WIND, std_msgs::Float64::TYPE_NAME, false),
@@ -278,7 +289,7 @@ mod tests {
                 t.type_name
             );
         }
-        assert_eq!(reg.len(), 36);
+        assert_eq!(reg.len(), 37);
     }
 
     #[test]

@@ -25,8 +25,10 @@
 //! robot crate's nominal `base_from_panoramic_optical`, published 50 ms after exposure
 //! ([`PANORAMIC_LATENCY`]) on `/panoramic/image_raw` and `/panoramic/camera_info`.
 //!
-//! Render seeds: `rng::key(seed, stream, capture index)`: the noise differs per capture and
-//! is identical for any thread count.
+//! Render seeds: `rng::key(noise_seed, stream, capture index)` (the scenario's `noise_seed`,
+//! [`crate::config::SimConfig::noise_seed`]): the noise differs per capture and run, and is
+//! identical for any thread count. The calibration error below belongs to the camera, so it
+//! is drawn from the world's `seed`.
 //!
 //! # Published intrinsics: a calibration, not the truth
 //! A real camera's `camera_info` comes from an intrinsic calibration, which leaves an error.
@@ -177,11 +179,12 @@ pub struct WristCamera {
 }
 
 impl WristCamera {
-    /// The camera of a scenario.
+    /// The camera of a scenario: `seed` (the world's) draws its calibration error,
+    /// `noise_seed` (the run's) its render noise.
     ///
     /// # Errors
     /// [`SimError::Render`] for an invalid scale; [`SimError::Config`] for durations.
-    pub fn new(config: &CameraConfig, seed: u64) -> Result<Self, SimError> {
+    pub fn new(config: &CameraConfig, seed: u64, noise_seed: u64) -> Result<Self, SimError> {
         let intrinsics = wrist_camera()
             .scaled(config.scale)
             .map_err(crate::render::RenderError::from)?;
@@ -198,7 +201,7 @@ impl WristCamera {
             })
         };
         Ok(Self {
-            seed,
+            seed: noise_seed,
             intrinsics,
             published,
             rays,
@@ -322,11 +325,12 @@ pub struct PanoramicCamera {
 }
 
 impl PanoramicCamera {
-    /// The camera of a scenario.
+    /// The camera of a scenario: `seed` (the world's) draws its calibration error,
+    /// `noise_seed` (the run's) its render noise.
     ///
     /// # Errors
     /// [`SimError::Render`] for an invalid scale; [`SimError::Config`] for the period.
-    pub fn new(config: &PanoramicConfig, seed: u64) -> Result<Self, SimError> {
+    pub fn new(config: &PanoramicConfig, seed: u64, noise_seed: u64) -> Result<Self, SimError> {
         let intrinsics = panoramic_camera()
             .scaled(config.scale)
             .map_err(crate::render::RenderError::from)?;
@@ -352,7 +356,7 @@ impl PanoramicCamera {
             None
         };
         Ok(Self {
-            seed,
+            seed: noise_seed,
             intrinsics,
             published,
             rays,
@@ -458,9 +462,16 @@ mod tests {
         let text = "name = \"c\"\nseed = 5\nduration_s = 1.0\n[camera]\nscale = 0.1\ninfo_error = false\n[panoramic]\nscale = 0.1\n";
         let s = scenario::Scenario::parse(text, "c")?;
         let config = crate::SimConfig::of_scenario(&s)?;
-        let wrist = WristCamera::new(&config.camera, s.seed)?;
+        let wrist = WristCamera::new(&config.camera, s.seed, s.seed)?;
         assert_eq!(wrist.published_intrinsics(), wrist.intrinsics());
-        let pano = PanoramicCamera::new(&config.panoramic, s.seed)?;
+        let pano = PanoramicCamera::new(&config.panoramic, s.seed, s.seed)?;
+        // Another day of the same robot: the same calibration error, other noise.
+        let other_day = WristCamera::new(&config.camera, s.seed, s.seed + 1)?;
+        assert_eq!(
+            other_day.published_intrinsics(),
+            wrist.published_intrinsics()
+        );
+        assert_ne!(other_day.seed, wrist.seed);
         assert_ne!(
             pano.published, pano.intrinsics,
             "panoramic.info_error stays on"

@@ -4,6 +4,8 @@
 //!
 //! ```toml
 //! hour = 10.5                 # local solar hour at t = 0 (advances with the robot clock)
+//! noise_seed = 7              # seed of what differs from one run to the next on the same robot
+//!                             # and bay (sensor noise, encoders, odometry, gusts); default `seed`
 //!
 //! [wind]                      # "wind" = 3-s mean speed
 //! mean_mps = 1.5              # default 0
@@ -153,8 +155,14 @@ pub const DEFAULT_MOUNT_RPY_DEG: [f64; 3] = robot::camera_mount::NOMINAL_MOUNT_R
 /// The simulator's configuration (module docs).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimConfig {
-    /// Seed of every random process.
+    /// Seed of the world: the bay, the true arm's DH perturbation, the cameras' calibration
+    /// errors, the bump.
     pub seed: u64,
+    /// Seed of what differs from one run to the next on the same robot and bay: camera and
+    /// encoder noise, odometry drift, the wind's gusts (`noise_seed`, default `seed`). Two runs
+    /// with one `seed` and different `noise_seed`s are two days of the same robot at the same
+    /// bay.
+    pub noise_seed: u64,
     /// Robot time to run (s).
     pub duration_s: f64,
     /// Local solar hour at t = 0.
@@ -206,6 +214,12 @@ impl SimConfig {
             0.0..=24.0,
             "h",
             "local solar hour at t = 0 (advances with the robot clock)",
+        )?;
+        let noise_seed = r.section("").u64(
+            "noise_seed",
+            seed,
+            "",
+            "seed of what differs from run to run on the same robot and bay: sensor and encoder noise, odometry drift, the wind's gusts (default: the scenario's seed)",
         )?;
 
         let mut w = r.section("wind");
@@ -435,6 +449,7 @@ impl SimConfig {
         };
         Ok(Self {
             seed,
+            noise_seed,
             duration_s,
             site_layout,
             hour,
@@ -487,6 +502,8 @@ task.standoff_m = 0.5
     fn reads_values_and_defaults() -> Result<(), Box<dyn std::error::Error>> {
         let c = config(TEXT)?;
         assert_eq!(c.seed, 3);
+        assert_eq!(c.noise_seed, 3, "noise_seed defaults to the seed");
+        assert_eq!(config(&format!("noise_seed = 11\n{TEXT}"))?.noise_seed, 11);
         assert_eq!(c.hour, 17.5);
         assert!((c.wind.gust_mps - 0.6).abs() < 1e-12);
         assert_eq!(c.bump.map(|b| b.time_s), Some(Some(5.0)));

@@ -165,6 +165,7 @@ impl SimWorld {
     /// Scene, camera or scenario errors.
     pub fn new(scenario: &SimConfig) -> Result<Self, SimError> {
         let seed = scenario.seed;
+        let noise = scenario.noise_seed;
         let (scene, layout) = site(scenario)?;
         let model = RobotModel::nominal();
         let r = &scenario.robot;
@@ -199,20 +200,20 @@ impl SimWorld {
             ),
         };
         let wind = Wind::new(
-            seed,
+            noise,
             scenario.wind,
             layout.params.sag_m,
             r.lift_m / robot::kinematics::LIFT_TRAVEL_M,
         );
         Ok(Self {
-            arm: ArmSim::new(seed, true_dh, r.home_rad, sigma),
-            lift: LiftSim::new(seed, r.lift_m, r.encoder_noise),
-            clamp: ClampSim::new(seed, r.encoder_noise),
-            base: BaseSim::new(seed, start, r.odometry_drift).on_ground(layout.ground),
-            wrist: WristCamera::new(&scenario.camera, seed)?,
+            arm: ArmSim::new(noise, true_dh, r.home_rad, sigma),
+            lift: LiftSim::new(noise, r.lift_m, r.encoder_noise),
+            clamp: ClampSim::new(noise, r.encoder_noise),
+            base: BaseSim::new(noise, start, r.odometry_drift).on_ground(layout.ground),
+            wrist: WristCamera::new(&scenario.camera, seed, noise)?,
             light: scenario.camera.light.then(WristLightSim::new),
-            panoramic: PanoramicCamera::new(&scenario.panoramic, seed)?,
-            env: EnvironmentSim::new(seed, scenario.hour),
+            panoramic: PanoramicCamera::new(&scenario.panoramic, seed, noise)?,
+            env: EnvironmentSim::new(noise, scenario.hour),
             wind,
             mount: mount_from_config(scenario.camera.mount_xyz_m, scenario.camera.mount_rpy_deg),
             bump,

@@ -3,8 +3,9 @@
 //! `calib match` runs the calibration front end on two images: the tool a user reaches for
 //! when a calibration looks wrong.
 //!
-//! `calib carry` reads the self-calibration a run accepted and writes it as the next run's
-//! `calibration.mount_*` parameters ([`calib::selfcal::carry`]).
+//! `calib carry` reads the camera edge a run ended with (the self-calibration it accepted,
+//! the drift check reference taken with it) and writes it as the next run's
+//! `calibration.mount_*` and `calibration.reference_*` parameters ([`calib::selfcal::carry`]).
 //!
 //! `calib handeye` solves AX=XB from two TUM pose files: hand = `base_from_tool0`, eye =
 //! `world_from_camera`, paired by equal timestamp. The result is always
@@ -33,8 +34,9 @@ pub enum CalibCommand {
     /// RGB-D when depth is recorded, monocular otherwise.
     #[command(name = "self")]
     SelfCal(SelfArgs),
-    /// The self-calibration a run accepted, as the next run's parameters
-    /// (`calibration.mount_*`): the robot then starts from it instead of the nominal mount.
+    /// The self-calibration a run accepted and its drift check reference, as the next run's
+    /// parameters (`calibration.mount_*`, `calibration.reference_*`): the robot then starts
+    /// from them instead of the nominal mount.
     Carry(CarryArgs),
 }
 
@@ -42,7 +44,8 @@ pub enum CalibCommand {
 #[derive(Debug, Args)]
 pub struct CarryArgs {
     /// Recording of a run whose calibration stage accepted a self-calibration
-    /// (`/calibration/hand_eye`, and the camera edge on `/tf`).
+    /// (`/calibration/hand_eye`, and the camera edge on `/tf`) or took a drift check reference
+    /// (`/calibration/check_reference`).
     pub rec: PathBuf,
     /// Write the parameters to this file (TOML lines for a scenario's `[parameters]`) instead
     /// of stdout.
@@ -208,46 +211,49 @@ pub fn run(command: &CalibCommand) -> Result<()> {
     }
 }
 
-/// `calib carry`: the last accepted self-calibration of a recording
-/// ([`calib::selfcal::AcceptedFinder`]) as parameters.
+/// `calib carry`: the camera edge a recording ended with, its accepted self-calibration and
+/// its drift check reference ([`calib::selfcal::CarryFinder`]) as parameters.
 fn carry(args: &CarryArgs) -> Result<()> {
-    use calib::selfcal::AcceptedFinder;
-    use replay::{McapReader, ReadFilter};
-
-    let mut reader = McapReader::open(&args.rec)
-        .with_context(|| format!("cannot read {}", args.rec.display()))?;
-    let mut finder = AcceptedFinder::new();
-    for m in reader.messages(&ReadFilter::all().with_topics(AcceptedFinder::TOPICS)) {
-        let m = m.with_context(|| format!("reading {}", args.rec.display()))?;
-        let msg = m.decode().with_context(|| {
-            format!(
-                "{}: {} at {} ns",
-                args.rec.display(),
-                m.topic(),
-                m.log_time_ns
-            )
-        })?;
-        finder.feed(m.log_time_ns, m.topic(), &msg);
-    }
+    let finder = read_carry(&args.rec)?;
     let results = finder.results();
-    let Some(accepted) = finder.finish() else {
+    let Some(carried) = finder.finish() else {
         bail!(
-            "{}: no accepted self-calibration to carry ({results} results on /calibration/hand_eye, none became the camera edge on /tf): the run kept the camera edge it started with",
+            "{}: nothing to carry: no accepted self-calibration ({results} results on /calibration/hand_eye, none became the camera edge on /tf) and no drift check reference taken with the final camera edge on /calibration/check_reference; the run kept the camera edge it started with",
             args.rec.display()
         );
     };
-    let h = &accepted.message;
+    let mut what = Vec::new();
+    match &carried.accepted {
+        Some(a) => {
+            let h = &a.message;
+            what.push(format!(
+                "the self-calibration accepted at {:.3} s ({}, {}, {} views; sigma {:.4} deg / {:.3} mm over the three axes)",
+                a.log_time_ns as f64 * 1e-9,
+                h.method,
+                h.mode,
+                h.views,
+                h.sigma_rot_deg,
+                h.sigma_trans_mm
+            ));
+        }
+        None => {
+            what.push("the camera edge the run kept (no calibration accepted in it)".to_owned())
+        }
+    }
+    if let Some(r) = &carried.reference {
+        let (rot_deg, trans_m) = calib::handeye::pose_error(&r.tool0_from_camera, &carried.edge);
+        what.push(format!(
+            "the drift check reference taken at {:.3} s ({rot_deg:.3} deg / {:.2} mm from the edge: what the check poses see of the arm's and camera_info's error)",
+            r.log_time_ns as f64 * 1e-9,
+            trans_m * 1e3
+        ));
+    }
     let text = format!(
-        "# rodlog calib carry {}: the self-calibration accepted at {:.3} s ({}, {}, {} views; sigma {:.4} deg / {:.3} mm over the three axes).\n\
+        "# rodlog calib carry {}: {}.\n\
          # Under the next run's [parameters], or each line as --set KEY=VALUE.\n{}",
         args.rec.display(),
-        accepted.log_time_ns as f64 * 1e-9,
-        h.method,
-        h.mode,
-        h.views,
-        h.sigma_rot_deg,
-        h.sigma_trans_mm,
-        accepted.parameters_toml()
+        what.join("; "),
+        carried.parameters_toml()
     );
     match &args.out {
         Some(path) => {
@@ -255,6 +261,27 @@ fn carry(args: &CarryArgs) -> Result<()> {
         }
         None => super::print_stdout(text.trim_end()),
     }
+}
+
+/// Reads what a recording leaves for the next run.
+///
+/// # Errors
+/// An unreadable recording or an undecodable message, naming the file, topic and time.
+pub(crate) fn read_carry(rec: &std::path::Path) -> Result<calib::selfcal::CarryFinder> {
+    use calib::selfcal::CarryFinder;
+    use replay::{McapReader, ReadFilter};
+
+    let mut reader =
+        McapReader::open(rec).with_context(|| format!("cannot read {}", rec.display()))?;
+    let mut finder = CarryFinder::new();
+    for m in reader.messages(&ReadFilter::all().with_topics(CarryFinder::TOPICS)) {
+        let m = m.with_context(|| format!("reading {}", rec.display()))?;
+        let msg = m
+            .decode()
+            .with_context(|| format!("{}: {} at {} ns", rec.display(), m.topic(), m.log_time_ns))?;
+        finder.feed(m.log_time_ns, m.topic(), &msg);
+    }
+    Ok(finder)
 }
 
 fn handeye(args: &HandeyeArgs) -> Result<()> {

@@ -52,6 +52,9 @@ pub fn run(settings: &Settings) -> Result<()> {
                 duration_s: 320.0,
                 seeded_site: settings.seeded_sites,
                 wrist_light: settings.wrist_light,
+                noise_seed: None,
+                earlier_run: None,
+                carried: None,
             });
         }
     }

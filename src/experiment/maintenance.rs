@@ -10,6 +10,15 @@
 //! refusal to judge, not a detection). A check whose four views are `unresolved` takes four
 //! more; the table gives the verdict of the four beside the final one. Goal: >= 95 % detected in every bin at
 //! >= 0.5 deg or >= 3 mm, <= 5 % false alarms, >= 50 runs each.
+//!
+//! **Robots and days.** Trial `t` is one robot (a world seed: the bay, the arm's kinematic
+//! error, the cameras' calibration errors) checked once per bin, each run on a day of its own
+//! (the scenario's `noise_seed`: sensor noise, hour, wind). Before its bins, the robot runs one
+//! unbumped check on yet another day (its [`RunSpec::earlier_run`]), and every bin's run starts
+//! from what that run left, as `rodlog calib carry` writes it: the camera edge and, when that
+//! check found the mount consistent, the drift check reference the later checks compare with
+//! (the calibration stage's module docs). So the table measures the check as a field engineer
+//! runs it, and a robot whose reference run could not tell checks against its camera edge.
 
 use anyhow::Result;
 use serde::Serialize;
@@ -63,6 +72,9 @@ pub struct BinResult {
     pub first_cannot_tell: usize,
     /// The first four views were `unresolved`, and the check took four more.
     pub extended: usize,
+    /// Runs that started from a drift check reference their robot's reference run left
+    /// (the others check against the camera edge itself).
+    pub from_reference: usize,
     /// `drifted / checked` (the detection rate; for the unbumped bin, the false-alarm rate),
     /// over the runs the check answered.
     pub rate: f64,
@@ -102,22 +114,34 @@ pub fn run(settings: &Settings) -> Result<()> {
     let camera_scale = super::tasks::CAMERA_SCALE * settings.image_scale;
     let mut specs = Vec::new();
     let mut seeds = Vec::new();
-    for (b, (label, rot, trans)) in BINS.iter().enumerate() {
-        for t in 0..trials {
-            let seed = world_seed(trial_seed(settings.seed, 300 + b as u64, t as u64));
-            seeds.push(seed);
+    // Trial-major, so that the runs of one robot follow its reference run.
+    for t in 0..trials {
+        let seed = world_seed(trial_seed(settings.seed, 300, t as u64));
+        seeds.push(seed);
+        let day = |noise_seed: u64| RunSpec {
+            condition: "reference".to_owned(),
+            task: "check".into(),
+            seed,
+            hour: 9.0 + 6.0 * sim::rng::uniform(noise_seed, 0x3A1, 0),
+            wind_mps: 1.0 * sim::rng::uniform(noise_seed, 0x3A1, 1),
+            bump: None,
+            self_maintenance: true,
+            camera_scale,
+            duration_s: 60.0,
+            seeded_site: settings.seeded_sites,
+            wrist_light: false,
+            noise_seed: Some(noise_seed),
+            earlier_run: None,
+            carried: None,
+        };
+        let reference = day(world_seed(trial_seed(settings.seed, 299, t as u64)));
+        for (b, (label, rot, trans)) in BINS.iter().enumerate() {
+            let noise_seed = world_seed(trial_seed(settings.seed, 300 + b as u64 + 1, t as u64));
             specs.push(RunSpec {
                 condition: (*label).to_owned(),
-                task: "check".into(),
-                seed,
-                hour: 9.0 + 6.0 * sim::rng::uniform(seed, 0x3A1, 0),
-                wind_mps: 1.0 * sim::rng::uniform(seed, 0x3A1, 1),
                 bump: (*rot > 0.0 || *trans > 0.0).then_some((*rot, *trans)),
-                self_maintenance: true,
-                camera_scale,
-                duration_s: 60.0,
-                seeded_site: settings.seeded_sites,
-                wrist_light: false,
+                earlier_run: Some(Box::new(reference.clone())),
+                ..day(noise_seed)
             });
         }
     }
@@ -136,6 +160,14 @@ pub fn run(settings: &Settings) -> Result<()> {
             };
             for run in results.iter().filter(|x| x.spec.condition == *label) {
                 r.runs += 1;
+                if run
+                    .spec
+                    .carried
+                    .as_ref()
+                    .is_some_and(|c| c.contains("calibration.reference_xyz_m"))
+                {
+                    r.from_reference += 1;
+                }
                 let checks: Vec<&str> = run
                     .verdict
                     .calibration
@@ -174,9 +206,15 @@ pub fn run(settings: &Settings) -> Result<()> {
     let mut report = Report::new("Maintenance: drift detection per bump size");
     report.paragraph(settings.sites_sentence());
     report.paragraph(&format!(
-        "{trials} runs per bin of the `check` task (4 drift check views of the calibration \
+        "{trials} robots (a world seed each: the bay, the arm's kinematic error, the cameras' \
+         calibration errors), each checked once per bin on a day of its own (`noise_seed`: \
+         sensor noise, hour, wind) by the `check` task (4 drift check views of the calibration \
          cabinet, 4 more when those are unresolved, wrist camera {}x{}, 9:00-15:00, mean wind \
-         0-1 m/s); bump at 0.5 s in a direction drawn from the seed. Goal: >= 95 % detected at \
+         0-1 m/s); bump at 0.5 s in a direction drawn from the robot's seed. Before its bins, \
+         each robot ran one unbumped check on another day, and its runs start from what that \
+         run left (`rodlog calib carry`): when that check found the mount consistent, its \
+         reference, which the later checks compare with (column \"against a reference\"; \
+         the others compare with the camera edge, as a robot without a reference does). Goal: >= 95 % detected at \
          >= 0.5 deg or >= 3 mm and none of those called consistent (a miss); on unbumped runs \
          <= 5 % false alarms and <= 5 % cannot tell. Rates are over the runs the check answered; \
          a run refused before its check (no check) is not a verdict of the check.",
@@ -186,6 +224,7 @@ pub fn run(settings: &Settings) -> Result<()> {
     let mut t = Table::new(&[
         "bin",
         "runs",
+        "against a reference",
         "no check (refused before it)",
         "drifted",
         "consistent",
@@ -217,6 +256,7 @@ pub fn run(settings: &Settings) -> Result<()> {
         t.row(vec![
             b.bin.clone(),
             b.runs.to_string(),
+            b.from_reference.to_string(),
             b.not_checked_cell(),
             b.drifted.to_string(),
             b.consistent.to_string(),
@@ -258,6 +298,20 @@ pub fn run(settings: &Settings) -> Result<()> {
         })
         .collect();
     json.section("answers", &answers)?;
+    // Per robot: whether its reference run left a reference (the others checked against
+    // the camera edge).
+    let mut references: Vec<(u64, bool)> = Vec::new();
+    for r in &results {
+        let has = r
+            .spec
+            .carried
+            .as_ref()
+            .is_some_and(|c| c.contains("calibration.reference_xyz_m"));
+        if !references.iter().any(|(seed, _)| *seed == r.spec.seed) {
+            references.push((r.spec.seed, has));
+        }
+    }
+    json.section("references", &references)?;
     settings.write_results(&json)?;
     let path = report.write(settings.out.root())?;
     crate::cmd::print_stdout(&path.display().to_string())

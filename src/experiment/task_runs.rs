@@ -42,6 +42,18 @@ pub struct RunSpec {
     /// The robot has a wrist light (`camera.light`), which its task lights at dusk.
     #[serde(default)]
     pub wrist_light: bool,
+    /// The scenario's `noise_seed` (sensor noise, gusts: another day of the same robot and
+    /// bay); `None`: the seed's.
+    #[serde(default)]
+    pub noise_seed: Option<u64>,
+    /// A run of the same robot before this one, whose calibration this one starts from
+    /// (`rodlog calib carry`: the camera edge and the drift check reference it left).
+    #[serde(default)]
+    pub earlier_run: Option<Box<RunSpec>>,
+    /// The parameters carried from [`Self::earlier_run`] (`[parameters]` lines), filled in by
+    /// [`run_selected`] once that run is done; `None` when it left nothing to carry.
+    #[serde(default)]
+    pub carried: Option<String>,
 }
 
 impl RunSpec {
@@ -56,6 +68,12 @@ impl RunSpec {
             hour = self.hour,
             wind = self.wind_mps,
         );
+        if let Some(noise_seed) = self.noise_seed {
+            t.insert_str(
+                t.find("duration_s").unwrap_or(0),
+                &format!("noise_seed = {noise_seed}\n"),
+            );
+        }
         if let Some((rot, trans)) = self.bump {
             t.push_str("\n[bump]\ntime_s = 0.5\n");
             if rot.is_finite() {
@@ -77,6 +95,9 @@ impl RunSpec {
             if self.wrist_light { "light = true\n" } else { "" },
             self.self_maintenance
         ));
+        if let Some(carried) = &self.carried {
+            t.push_str(carried);
+        }
         t
     }
 }
@@ -101,6 +122,38 @@ pub struct RunResult {
 /// Scenario, pipeline, simulator and recording errors (a task refusing or failing is a
 /// result, not an error).
 pub fn run(spec: &RunSpec, dir: &Path, keep: Keep) -> Result<RunResult> {
+    let (out, wall_s) = record(spec, dir)?;
+    let verdict = judge(&out)?;
+    let recording = if keep == Keep::Failed && !verdict.success {
+        Some(out)
+    } else {
+        std::fs::remove_file(&out).with_context(|| format!("removing {}", out.display()))?;
+        None
+    };
+    Ok(RunResult {
+        spec: spec.clone(),
+        verdict,
+        wall_s,
+        recording,
+    })
+}
+
+/// Records an earlier run ([`RunSpec::earlier_run`]) in `dir` and returns what it leaves for
+/// the next run (`rodlog calib carry`), `None` when nothing; the recording is deleted.
+///
+/// # Errors
+/// Those of [`run`], and an unreadable recording.
+pub fn carry_of(spec: &RunSpec, dir: &Path) -> Result<Option<String>> {
+    let (out, _) = record(spec, dir)?;
+    let carried = crate::cmd::calib::read_carry(&out)?
+        .finish()
+        .map(|c| c.parameters_toml());
+    std::fs::remove_file(&out).with_context(|| format!("removing {}", out.display()))?;
+    Ok(carried)
+}
+
+/// Records `spec` in `dir`: the recording's path and the wall time (s).
+fn record(spec: &RunSpec, dir: &Path) -> Result<(PathBuf, f64)> {
     let text = spec.scenario_toml();
     let origin = format!("{}-{}", spec.task, spec.seed);
     let mut scenario = scenario::Scenario::parse(&text, &origin)
@@ -117,10 +170,11 @@ pub fn run(spec: &RunSpec, dir: &Path, keep: Keep) -> Result<RunResult> {
     let plan =
         compose::Plan::new(&scenario).with_context(|| format!("scenario of run {origin}"))?;
     let out = dir.join(format!(
-        "{}-{}-{}.mcap",
+        "{}-{}-{}-{}.mcap",
         spec.condition.replace([' ', '/'], "_"),
         spec.task,
-        spec.seed
+        spec.seed,
+        spec.noise_seed.unwrap_or(spec.seed)
     ));
     let options = RecordOptions {
         out: out.clone(),
@@ -134,20 +188,7 @@ pub fn run(spec: &RunSpec, dir: &Path, keep: Keep) -> Result<RunResult> {
     };
     let started = std::time::Instant::now();
     compose::record(&plan, &options, Vec::new())?;
-    let wall_s = started.elapsed().as_secs_f64();
-    let verdict = judge(&out)?;
-    let recording = if keep == Keep::Failed && !verdict.success {
-        Some(out)
-    } else {
-        std::fs::remove_file(&out).with_context(|| format!("removing {}", out.display()))?;
-        None
-    };
-    Ok(RunResult {
-        spec: spec.clone(),
-        verdict,
-        wall_s,
-        recording,
-    })
+    Ok((out, started.elapsed().as_secs_f64()))
 }
 
 /// Which runs' recordings [`run`] keeps.
@@ -182,11 +223,20 @@ pub fn run_all(
     keep: Keep,
     progress: &super::progress::Progress,
 ) -> Result<Vec<RunResult>> {
+    in_parallel(specs, progress, |spec| run(spec, dir, keep))
+}
+
+/// `each` of `specs` on plain worker threads ([`run_all`]), results in spec order.
+fn in_parallel<T: Send>(
+    specs: &[RunSpec],
+    progress: &super::progress::Progress,
+    each: impl Fn(&RunSpec) -> Result<T> + Sync,
+) -> Result<Vec<T>> {
     use std::sync::Mutex;
     use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
     let next = AtomicUsize::new(0);
     let failed = AtomicBool::new(false);
-    let results: Mutex<Vec<Option<Result<RunResult>>>> =
+    let results: Mutex<Vec<Option<Result<T>>>> =
         Mutex::new((0..specs.len()).map(|_| None).collect());
     let workers = rayon::current_num_threads().clamp(1, specs.len().max(1));
     std::thread::scope(|scope| {
@@ -195,7 +245,7 @@ pub fn run_all(
                 while !failed.load(Ordering::Relaxed) {
                     let i = next.fetch_add(1, Ordering::Relaxed);
                     let Some(spec) = specs.get(i) else { break };
-                    let r = run(spec, dir, keep);
+                    let r = each(spec);
                     if r.is_err() {
                         failed.store(true, Ordering::Relaxed);
                     }
@@ -295,14 +345,31 @@ pub fn run_selected(
     specs: &[RunSpec],
 ) -> Result<Option<Vec<RunResult>>> {
     settings.run_items(specs.len(), |ids| {
-        let chosen: Vec<RunSpec> = ids.iter().filter_map(|&i| specs.get(i).cloned()).collect();
-        let progress = super::progress::Progress::new(name, chosen.len() as u64);
+        let mut chosen: Vec<RunSpec> = ids.iter().filter_map(|&i| specs.get(i).cloned()).collect();
+        // The earlier runs the chosen ones start from, each once, before them.
+        let mut earlier: Vec<RunSpec> = Vec::new();
+        for e in chosen.iter().filter_map(|s| s.earlier_run.as_deref()) {
+            if !earlier.contains(e) {
+                earlier.push(e.clone());
+            }
+        }
+        let progress = super::progress::Progress::new(name, (chosen.len() + earlier.len()) as u64);
         let keep = if settings.keep_failed {
             Keep::Failed
         } else {
             Keep::None
         };
-        let results = run_all(&chosen, &runs_dir(&settings.out)?, keep, &progress);
+        let dir = runs_dir(&settings.out)?;
+        let carried = in_parallel(&earlier, &progress, |spec| carry_of(spec, &dir))?;
+        for spec in &mut chosen {
+            if let Some(e) = spec.earlier_run.as_deref() {
+                spec.carried = earlier
+                    .iter()
+                    .position(|x| x == e)
+                    .and_then(|i| carried[i].clone());
+            }
+        }
+        let results = run_all(&chosen, &dir, keep, &progress);
         progress.finish();
         results
     })

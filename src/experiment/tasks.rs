@@ -72,6 +72,9 @@ pub fn trial_specs(seed: u64, camera_scale: f64, seeded_site: bool) -> Vec<RunSp
                 duration_s: 320.0,
                 seeded_site,
                 wrist_light: false,
+                noise_seed: None,
+                earlier_run: None,
+                carried: None,
             });
         }
     }

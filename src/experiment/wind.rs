@@ -48,6 +48,9 @@ pub fn run(settings: &Settings) -> Result<()> {
                 duration_s: 320.0,
                 seeded_site: settings.seeded_sites,
                 wrist_light: false,
+                noise_seed: None,
+                earlier_run: None,
+                carried: None,
             });
         }
     }

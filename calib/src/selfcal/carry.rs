@@ -1,16 +1,20 @@
-//! A calibration carried from one run to the next: the self-calibration a recording's
-//! calibration stage accepted, as the `calibration.mount_*` parameters of the next run
-//! ([`super::stage::CalibrationStageConfig::from_params`]).
+//! A calibration carried from one run to the next: the camera edge a recording's calibration
+//! stage ended with, the self-calibration that made it and the drift check reference taken
+//! with it, as the `calibration.mount_*` and `calibration.reference_*` parameters of the next
+//! run ([`super::stage::CalibrationStageConfig::from_params`]).
 //!
 //! Every run starts from the camera edge its configuration gives, the robot model's nominal
 //! mount by default. A mount that was knocked and then recalibrated stays where the knock
 //! put it; unless the calibration is carried over, the next run's drift check finds the same
 //! drift against the nominal mount and recalibrates again (18 views, about a minute).
 //!
-//! [`AcceptedFinder`] reads a run's messages in log order and keeps the last accepted
+//! [`CarryFinder`] reads a run's messages in log order and keeps the last accepted
 //! result: a `/calibration/hand_eye` whose `tool0_from_camera` then became the camera edge
 //! `tool0 -> camera_color_optical_frame` on `/tf`. A result above the acceptance limits is
-//! published too, but never becomes the edge, so it is never carried.
+//! published too, but never becomes the edge, so it is never carried. It keeps the last
+//! `/calibration/check_reference` too, with the edge in use when it came: a reference is
+//! carried only with the edge it was taken with (a later accepted calibration makes it
+//! another mount's).
 //!
 //! The uncertainty carried is per axis: `/calibration/hand_eye` reports the square root of
 //! the covariance block's trace (the three axes together), and the carried 1-sigma per axis
@@ -48,48 +52,91 @@ impl AcceptedCalibration {
         (rot.is_finite() && trans.is_finite() && rot > 0.0 && trans > 0.0)
             .then(|| (rot / 3f64.sqrt(), trans / 3f64.sqrt()))
     }
+}
 
+/// A drift check's reference ([`super::stage`] module docs: `/calibration/check_reference`)
+/// and the camera edge it was taken with.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CheckReference {
+    /// Log time of its message (ns).
+    pub log_time_ns: u64,
+    /// The `X` the check's views supported (`tool0_from_camera`).
+    pub tool0_from_camera: Isometry3<f64>,
+    /// The camera edge in use when it was taken.
+    pub edge: Isometry3<f64>,
+}
+
+/// What a run leaves for the next one (module docs): its final camera edge, with the accepted
+/// calibration that made it and the drift check reference taken with it, when there are.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Carried {
+    /// The camera edge `tool0 -> camera_color_optical_frame` at the end of the run.
+    pub edge: Isometry3<f64>,
+    /// The accepted self-calibration that is [`Self::edge`], if the run accepted one.
+    pub accepted: Option<AcceptedCalibration>,
+    /// The last drift check reference taken with [`Self::edge`], if any.
+    pub reference: Option<CheckReference>,
+}
+
+impl Carried {
     /// The next run's parameters, as TOML lines under a scenario's `[parameters]` (each also
     /// works as `--set KEY=VALUE`): `calibration.mount_xyz_m`, `calibration.mount_rpy_deg`
     /// (roll-pitch-yaw about the fixed x, y, z axes, as
-    /// [`robot::camera_mount::mount_from_xyz_rpy`] reads them) and, when the result has an
-    /// uncertainty, `calibration.mount_sigma_rot_deg` and `calibration.mount_sigma_trans_mm`.
-    /// Numbers are written in full (shortest round-trip form).
+    /// [`robot::camera_mount::mount_from_xyz_rpy`] reads them); with an accepted calibration
+    /// that has an uncertainty, `calibration.mount_sigma_rot_deg` and
+    /// `calibration.mount_sigma_trans_mm`; with a reference, `calibration.reference_xyz_m`
+    /// and `calibration.reference_rpy_deg`. Numbers are written in full (shortest round-trip
+    /// form).
     #[must_use]
     pub fn parameters_toml(&self) -> String {
-        let t = self.tool0_from_camera.translation.vector;
-        let (roll, pitch, yaw) = self.tool0_from_camera.rotation.euler_angles();
-        let mut lines = vec![
-            format!(
-                "calibration.mount_xyz_m = [{:?}, {:?}, {:?}]",
-                t.x, t.y, t.z
-            ),
-            format!(
-                "calibration.mount_rpy_deg = [{:?}, {:?}, {:?}]",
-                roll.to_degrees(),
-                pitch.to_degrees(),
-                yaw.to_degrees()
-            ),
-        ];
-        if let Some((rot, trans)) = self.sigma_per_axis() {
+        let mut lines = pose_lines("mount", &self.edge).to_vec();
+        if let Some((rot, trans)) = self
+            .accepted
+            .as_ref()
+            .and_then(AcceptedCalibration::sigma_per_axis)
+        {
             lines.push(format!("calibration.mount_sigma_rot_deg = {rot:?}"));
             lines.push(format!("calibration.mount_sigma_trans_mm = {trans:?}"));
+        }
+        if let Some(r) = &self.reference {
+            lines.extend(pose_lines("reference", &r.tool0_from_camera));
         }
         lines.join("\n") + "\n"
     }
 }
 
-/// Finds the last accepted self-calibration in a message stream (module docs).
+/// `calibration.{name}_xyz_m` and `calibration.{name}_rpy_deg` of `x`.
+fn pose_lines(name: &str, x: &Isometry3<f64>) -> [String; 2] {
+    let t = x.translation.vector;
+    let (roll, pitch, yaw) = x.rotation.euler_angles();
+    [
+        format!(
+            "calibration.{name}_xyz_m = [{:?}, {:?}, {:?}]",
+            t.x, t.y, t.z
+        ),
+        format!(
+            "calibration.{name}_rpy_deg = [{:?}, {:?}, {:?}]",
+            roll.to_degrees(),
+            pitch.to_degrees(),
+            yaw.to_degrees()
+        ),
+    ]
+}
+
+/// Finds what a run leaves for the next one in its message stream (module docs).
 #[derive(Debug, Clone, Default)]
-pub struct AcceptedFinder {
+pub struct CarryFinder {
     /// The last result not yet seen as the camera edge.
     candidate: Option<AcceptedCalibration>,
     accepted: Option<AcceptedCalibration>,
     /// Results read, accepted or not.
     results: usize,
+    /// The last camera edge on `/tf`.
+    edge: Option<Isometry3<f64>>,
+    reference: Option<CheckReference>,
 }
 
-impl AcceptedFinder {
+impl CarryFinder {
     /// A finder that has read nothing.
     #[must_use]
     pub fn new() -> Self {
@@ -97,7 +144,11 @@ impl AcceptedFinder {
     }
 
     /// Topics it reads.
-    pub const TOPICS: [&'static str; 2] = [topics::CALIBRATION_HAND_EYE, topics::TF];
+    pub const TOPICS: [&'static str; 3] = [
+        topics::CALIBRATION_HAND_EYE,
+        topics::TF,
+        topics::CALIBRATION_CHECK_REFERENCE,
+    ];
 
     /// Reads one message; other topics and malformed transforms are ignored.
     pub fn feed(&mut self, log_time_ns: u64, topic: &str, msg: &Msg) {
@@ -114,17 +165,33 @@ impl AcceptedFinder {
                         });
             }
             (topics::TF, Msg::TfMessage(tf)) => {
-                let Some(candidate) = &self.candidate else {
-                    return;
-                };
-                let became_the_edge = tf.transforms.iter().any(|e| {
-                    e.header.frame_id == MOUNT_PARENT_FRAME
-                        && e.child_frame_id == MOUNT_CHILD_FRAME
-                        && isometry_from_msg(&e.transform)
-                            .is_ok_and(|x| same_pose(&x, &candidate.tool0_from_camera))
+                let edges = tf.transforms.iter().filter(|e| {
+                    e.header.frame_id == MOUNT_PARENT_FRAME && e.child_frame_id == MOUNT_CHILD_FRAME
                 });
-                if became_the_edge {
-                    self.accepted = self.candidate.take();
+                for e in edges {
+                    let Ok(x) = isometry_from_msg(&e.transform) else {
+                        continue;
+                    };
+                    if self
+                        .candidate
+                        .as_ref()
+                        .is_some_and(|c| same_pose(&x, &c.tool0_from_camera))
+                    {
+                        self.accepted = self.candidate.take();
+                    }
+                    self.edge = Some(x);
+                }
+            }
+            (topics::CALIBRATION_CHECK_REFERENCE, Msg::TransformStamped(t))
+                if t.header.frame_id == MOUNT_PARENT_FRAME
+                    && t.child_frame_id == MOUNT_CHILD_FRAME =>
+            {
+                if let (Some(edge), Ok(x)) = (self.edge, isometry_from_msg(&t.transform)) {
+                    self.reference = Some(CheckReference {
+                        log_time_ns,
+                        tool0_from_camera: x,
+                        edge,
+                    });
                 }
             }
             _ => {}
@@ -137,10 +204,21 @@ impl AcceptedFinder {
         self.results
     }
 
-    /// The last accepted calibration, if any.
+    /// What there is to carry: `None` when the run neither accepted a calibration nor took
+    /// a reference with its final camera edge (it kept the edge it started with, and the
+    /// next run may as well start from the same parameters).
     #[must_use]
-    pub fn finish(self) -> Option<AcceptedCalibration> {
-        self.accepted
+    pub fn finish(self) -> Option<Carried> {
+        let edge = self.edge?;
+        let accepted = self
+            .accepted
+            .filter(|a| same_pose(&a.tool0_from_camera, &edge));
+        let reference = self.reference.filter(|r| same_pose(&r.edge, &edge));
+        (accepted.is_some() || reference.is_some()).then_some(Carried {
+            edge,
+            accepted,
+            reference,
+        })
     }
 }
 
@@ -183,9 +261,18 @@ mod tests {
         })
     }
 
+    fn reference(x: &Isometry3<f64>) -> Msg {
+        Msg::TransformStamped(transform_stamped(
+            MOUNT_PARENT_FRAME,
+            MOUNT_CHILD_FRAME,
+            msgs::builtin_interfaces::Time::default(),
+            x,
+        ))
+    }
+
     #[test]
     fn only_a_result_that_became_the_camera_edge_is_carried() {
-        let mut f = AcceptedFinder::new();
+        let mut f = CarryFinder::new();
         f.feed(1, topics::TF, &edge(&x(0.0)));
         f.feed(2, topics::CALIBRATION_HAND_EYE, &result(&x(3.0)));
         f.feed(3, topics::TF, &edge(&x(3.0)));
@@ -193,21 +280,60 @@ mod tests {
         f.feed(4, topics::CALIBRATION_HAND_EYE, &result(&x(9.0)));
         f.feed(5, topics::TF, &edge(&x(3.0)));
         assert_eq!(f.results(), 2);
-        let a = f.finish().expect("the first result was accepted");
+        let c = f.finish().expect("the first result was accepted");
+        let a = c.accepted.expect("accepted");
         assert_eq!(a.log_time_ns, 2);
         assert!(same_pose(&a.tool0_from_camera, &x(3.0)));
+        assert!(same_pose(&c.edge, &x(3.0)));
+        assert_eq!(c.reference, None);
 
-        let mut none = AcceptedFinder::new();
+        let mut none = CarryFinder::new();
         none.feed(1, topics::CALIBRATION_HAND_EYE, &result(&x(3.0)));
         none.feed(2, topics::TF, &edge(&x(0.0)));
         assert_eq!(none.finish(), None);
     }
 
     #[test]
+    fn a_reference_is_carried_with_its_edge_only() {
+        // A run that kept its edge and took a reference: the edge and the reference.
+        let mut kept = CarryFinder::new();
+        kept.feed(1, topics::TF, &edge(&x(0.0)));
+        kept.feed(2, topics::CALIBRATION_CHECK_REFERENCE, &reference(&x(0.7)));
+        kept.feed(3, topics::TF, &edge(&x(0.0)));
+        let c = kept.finish().expect("a reference");
+        assert!(same_pose(&c.edge, &x(0.0)));
+        assert_eq!(c.accepted, None);
+        let r = c.reference.expect("reference");
+        assert_eq!(r.log_time_ns, 2);
+        assert!(same_pose(&r.tool0_from_camera, &x(0.7)));
+
+        // A calibration accepted after the reference: the reference was the old mount's.
+        let mut later = CarryFinder::new();
+        later.feed(1, topics::TF, &edge(&x(0.0)));
+        later.feed(2, topics::CALIBRATION_CHECK_REFERENCE, &reference(&x(0.7)));
+        later.feed(3, topics::CALIBRATION_HAND_EYE, &result(&x(3.0)));
+        later.feed(4, topics::TF, &edge(&x(3.0)));
+        let c = later.clone().finish().expect("the calibration");
+        assert!(c.accepted.is_some());
+        assert_eq!(c.reference, None);
+
+        // A reference taken after the calibration is carried with it.
+        let mut after = later.clone();
+        after.feed(5, topics::CALIBRATION_CHECK_REFERENCE, &reference(&x(3.4)));
+        let c = after.finish().expect("both");
+        assert!(c.accepted.is_some());
+        assert!(same_pose(
+            &c.reference.expect("ref").tool0_from_camera,
+            &x(3.4)
+        ));
+    }
+
+    #[test]
     fn the_parameters_read_back_as_the_same_mount_and_a_per_axis_sigma() {
-        let mut f = AcceptedFinder::new();
+        let mut f = CarryFinder::new();
         f.feed(2, topics::CALIBRATION_HAND_EYE, &result(&x(3.0)));
         f.feed(3, topics::TF, &edge(&x(3.0)));
+        f.feed(4, topics::CALIBRATION_CHECK_REFERENCE, &reference(&x(3.6)));
         let a = f.finish().expect("accepted");
         // Each line as `--set KEY=VALUE`, read by the stage's own parameter reader.
         let mut params = scenario::Params::default();
@@ -226,6 +352,8 @@ mod tests {
         let (rot, trans) = c.mount_sigma.expect("carried sigma");
         assert!((rot * 3f64.sqrt() - 0.0842).abs() < 1e-12, "{rot}");
         assert!((trans * 3f64.sqrt() - 0.773).abs() < 1e-12, "{trans}");
+        let r = c.check_reference.expect("carried reference");
+        assert!(same_pose(&r, &x(3.6)), "{r:?}");
     }
 
     #[test]
@@ -269,5 +397,15 @@ mod tests {
             one_sigma.to_string().contains("both figures"),
             "{one_sigma}"
         );
+        let reference_alone = read(&[
+            "calibration.reference_xyz_m=[0.06, -0.04, 0.09]",
+            "calibration.reference_rpy_deg=[0.5, -1.1, 90.0]",
+        ])
+        .expect_err("a reference without the mount it belongs to");
+        assert!(
+            reference_alone.to_string().contains("belongs to the mount"),
+            "{reference_alone}"
+        );
+        assert_eq!(nominal.check_reference, None);
     }
 }

@@ -119,7 +119,7 @@ pub mod tracks;
 pub mod views;
 pub mod yaml;
 
-pub use carry::{AcceptedCalibration, AcceptedFinder};
+pub use carry::{AcceptedCalibration, Carried, CarryFinder, CheckReference};
 pub use drift::{CHECK_MOTION, CannotTell, DriftParams, DriftReport, DriftVerdict, check_drift};
 pub use messages::views_from_messages;
 pub use method::{FinalRefinement, STEP_NAMES, SelfCalMethod, Steps};

@@ -16,6 +16,7 @@
 //! |---|---|
 //! | `/tf` | with every `/joint_states` of a new stamp: the nominal mount ([`robot::camera_mount`]), or a calibration carried from an earlier run (`calibration.mount_xyz_m`, `mount_rpy_deg`: `rodlog calib carry`), until a calibration is accepted, then the accepted `tool0_from_camera`, stamped with the JointState's stamp |
 //! | `/calibration/hand_eye` | each self-calibration that succeeds (quality and 1-sigma uncertainty filled, [`hand_eye_msg`]) |
+//! | `/calibration/check_reference` | after each drift check that found the camera edge consistent: the reference later checks compare with (below) |
 //! | `/calibration/matches` | with it: one message per candidate view pair, its GMS matches, flagged `inlier` when consistent with the pair's estimated camera motion (RANSAC verdict) |
 //! | `/rosout` | every view skipped and every refusal, saying what to do; the acceptance |
 //! | `/task/event` | the answer to `solve` (task `calibration`, below) |
@@ -30,6 +31,18 @@
 //! |---|---|---|
 //! | check | `check` | `consistent` (INFO), `drifted` (INFO: recalibrate), `unresolved` (REFUSED: no drift seen, but the views could miss one of the target size; more views help), `cannot_tell` (REFUSED, e.g. too dark) from [`check_drift`] against the camera edge in use |
 //! | collect | `calibrate` | `accepted` (DONE: now the camera edge), `rejected` (FAILED: residuals above the limits), `refused` (REFUSED) |
+//!
+//! **The check's reference.** The camera edge carries its calibration's error, and the arm's
+//! kinematic error at the check poses differs from that at the calibration poses, so part of
+//! both shows as a "drift" of its own (ARCHITECTURE.md section 6). A check that finds the
+//! edge consistent publishes the `X` its views support on `/calibration/check_reference`;
+//! carried to a later run (`calibration.reference_xyz_m`, `reference_rpy_deg`, written by
+//! `rodlog calib carry` with the mount it belongs to), the check there compares with it
+//! ([`DriftParams::against_reference`]), so the systematic part cancels. A check against a
+//! reference that finds it consistent publishes that same reference again, never its own
+//! estimate: a reference that followed each check would let a slow creep pass unseen. Once a
+//! calibration is accepted in the run, the reference no longer belongs to the edge, and the
+//! check is against the calibration again.
 //!
 //! `extend` starts a batch of drift check views that joins the last check's views (after an
 //! `unresolved`: the task adds [`super::drift::CHECK_MOTION_MORE`], and the check of all of
@@ -74,6 +87,7 @@ use image::GrayImage;
 use nalgebra::{Isometry3, Matrix6};
 
 use msgs::builtin_interfaces::Time;
+use msgs::geometry_msgs::TransformStamped;
 use msgs::rcl_interfaces::Log;
 use msgs::rodlog_msgs::{FeatureMatches, HandEyeCalibration, TaskEvent};
 use msgs::sensor_msgs::{CameraInfo, Image, JointState};
@@ -120,6 +134,10 @@ pub struct CalibrationStageConfig {
     /// here. Default `None`: the drift check takes a typical self-calibration's
     /// ([`DriftParams::default`]).
     pub mount_sigma: Option<(f64, f64)>,
+    /// The drift check's reference for [`Self::nominal_tool0_from_camera`], carried from an
+    /// earlier run (`calibration.reference_xyz_m`, `calibration.reference_rpy_deg`: module
+    /// docs). Default `None`: the check compares with the camera edge itself.
+    pub check_reference: Option<Isometry3<f64>>,
     /// Parent frame of the hand pose. Default `base_link`.
     pub hand_parent_frame: String,
     /// Child frame of the hand pose. Default `tool0`.
@@ -164,6 +182,7 @@ impl Default for CalibrationStageConfig {
             latency: RobotDuration::from_millis(5),
             nominal_tool0_from_camera: robot::camera_mount::nominal_tool0_from_camera(),
             mount_sigma: None,
+            check_reference: None,
             hand_parent_frame: BASE_LINK.to_owned(),
             hand_child_frame: TOOL0.to_owned(),
             captures_to_solve: 18,
@@ -224,6 +243,18 @@ impl CalibrationStageConfig {
             "deg",
             "... its rotation, roll-pitch-yaw about the fixed x, y, z axes",
         )?;
+        let reference_xyz_m = s.f64s_opt::<3>(
+            "reference_xyz_m",
+            "none: the check compares with the camera edge",
+            "m",
+            "the drift check's reference for the carried mount, the X an earlier check supported at the check poses (`rodlog calib carry` writes it): translation",
+        )?;
+        let reference_rpy_deg = s.f64s_opt::<3>(
+            "reference_rpy_deg",
+            "none: the check compares with the camera edge",
+            "deg",
+            "... its rotation, roll-pitch-yaw about the fixed x, y, z axes",
+        )?;
         let typical = DriftParams::default();
         let typical = format!(
             "typical: {} deg / {} mm",
@@ -257,6 +288,19 @@ impl CalibrationStageConfig {
                 });
             }
         };
+        let check_reference = match (reference_xyz_m, reference_rpy_deg) {
+            (Some(xyz), Some(rpy)) if mount_xyz_m.is_some() => {
+                Some(robot::camera_mount::mount_from_xyz_rpy(xyz, rpy))
+            }
+            (None, None) => None,
+            (xyz, rpy) => {
+                return Err(scenario::ParamError::Value {
+                    key: "calibration.reference_xyz_m".to_owned(),
+                    value: format!("{xyz:?}, with reference_rpy_deg {rpy:?}"),
+                    reason: "a drift check reference is a whole pose and belongs to the mount it was taken with: give calibration.reference_xyz_m and calibration.reference_rpy_deg together, with calibration.mount_xyz_m and calibration.mount_rpy_deg (`rodlog calib carry` writes all four)".to_owned(),
+                });
+            }
+        };
         let mount_sigma = match (mount_sigma_rot_deg, mount_sigma_trans_mm) {
             (None, None) => None,
             (Some(rot), Some(trans))
@@ -279,6 +323,7 @@ impl CalibrationStageConfig {
         Ok(Self {
             nominal_tool0_from_camera,
             mount_sigma,
+            check_reference,
             latency: s.millis("latency_ms", d.latency, "stage latency")?,
             captures_to_solve: s.count(
                 "captures",
@@ -946,7 +991,12 @@ impl CalibrationStage {
             selfcal: super::drift::drift_front_end(self.selfcal_params(&camera)),
             ..DriftParams::default()
         };
+        let reference = self.config.check_reference.filter(|_| self.accepted == 0);
         let x_source = match (&self.x_covariance, self.accepted) {
+            _ if reference.is_some() => {
+                params = params.against_reference();
+                "a reference check at these poses carried from an earlier run: calibration.reference_*"
+            }
             (Some(cov), 0) => {
                 params = params.with_x_covariance(cov);
                 "carried with it: calibration.mount_sigma_*"
@@ -957,7 +1007,8 @@ impl CalibrationStage {
             }
             (None, _) => "a typical self-calibration's: this X came with no covariance",
         };
-        let report = check_drift(&self.views, &camera, &self.tool0_from_camera, &params);
+        let compared_with = reference.unwrap_or(self.tool0_from_camera);
+        let report = check_drift(&self.views, &camera, &compared_with, &params);
         let numbers = report.estimate.as_ref().map_or_else(String::new, |e| {
             format!(
                 "; change {:.3} deg / {:.2} mm (at most {:.3} deg / {:.2} mm), thresholds {:.3} deg / {:.2} mm, detectable {:.3} deg / {:.2} mm",
@@ -975,15 +1026,43 @@ impl CalibrationStage {
             )
         });
         let views = self.views.len();
+        let against = if reference.is_some() {
+            "against the reference carried from an earlier run"
+        } else {
+            "against the camera edge"
+        };
         let (level, kind, reason, text) = match &report.verdict {
-            DriftVerdict::Consistent => (
-                Log::INFO,
-                TaskEvent::INFO,
-                "consistent",
-                format!(
-                    "drift check: the camera mount is where the calibration says ({views} views){numbers}"
-                ),
-            ),
+            DriftVerdict::Consistent => {
+                // Module docs: a carried reference is kept, never replaced by this estimate.
+                let kept =
+                    reference.or_else(|| report.estimate.as_ref().map(|e| e.tool0_from_camera));
+                if let Some(x) = kept {
+                    out.push((
+                        topics::CALIBRATION_CHECK_REFERENCE.to_owned(),
+                        Msg::TransformStamped(transform_stamped(
+                            MOUNT_PARENT_FRAME,
+                            MOUNT_CHILD_FRAME,
+                            (log_time + self.config.latency)
+                                .to_ros()
+                                .unwrap_or_default(),
+                            &x,
+                        )),
+                    ));
+                }
+                (
+                    Log::INFO,
+                    TaskEvent::INFO,
+                    "consistent",
+                    format!(
+                        "drift check {against}: the camera mount is where the calibration says ({views} views){numbers}; {}",
+                        if reference.is_some() {
+                            "the reference stays the check's reference (rodlog calib carry)"
+                        } else {
+                            "the X these views support is now the check's reference (rodlog calib carry)"
+                        }
+                    ),
+                )
+            }
             DriftVerdict::Drifted {
                 rotation_deg,
                 translation_mm,
@@ -992,7 +1071,7 @@ impl CalibrationStage {
                 TaskEvent::INFO,
                 "drifted",
                 format!(
-                    "drift check: the camera mount has moved by about {rotation_deg:.2} deg / {translation_mm:.1} mm ({views} views){numbers}: recalibrate"
+                    "drift check {against}: the camera mount has moved by about {rotation_deg:.2} deg / {translation_mm:.1} mm ({views} views){numbers}: recalibrate"
                 ),
             ),
             DriftVerdict::CannotTell(why @ CannotTell::Unobservable { .. }) => (
@@ -1149,6 +1228,10 @@ impl Stage for CalibrationStage {
             (
                 topics::CALIBRATION_HAND_EYE.to_owned(),
                 HandEyeCalibration::TYPE_NAME,
+            ),
+            (
+                topics::CALIBRATION_CHECK_REFERENCE.to_owned(),
+                TransformStamped::TYPE_NAME,
             ),
             (topics::ROSOUT.to_owned(), Log::TYPE_NAME),
             (topics::TASK_EVENT.to_owned(), TaskEvent::TYPE_NAME),

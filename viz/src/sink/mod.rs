@@ -712,6 +712,18 @@ impl Viz {
                     &[&strips as &dyn AsComponents, &frame as &dyn AsComponents],
                 )?;
             }
+            (t::CALIBRATION_CHECK_REFERENCE, Msg::TransformStamped(ts)) => {
+                // The drift check's reference: where its views put the camera, beside the
+                // camera edge in use.
+                let pose = Pose::from_transform(&ts.transform);
+                let parent = frame_or(&ts.header.frame_id, msgs::frames::TOOL0);
+                self.log_named_pose(
+                    &format!("{CALIBRATION}/check_reference"),
+                    parent,
+                    "calibration/check_reference",
+                    &pose,
+                )?;
+            }
             (t::CALIBRATION_MATCHES, Msg::FeatureMatches(m)) => self.log_matches(m)?,
             (t::CALIBRATION_HAND_EYE, Msg::HandEyeCalibration(c)) => self.log_hand_eye(c)?,
             (t::JOINT_STATES, Msg::JointState(js)) => self.log_joints(js)?,
