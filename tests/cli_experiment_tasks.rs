@@ -49,7 +49,7 @@ fn task_experiments_smoke_runs() {
         "{maintenance}"
     );
     assert_eq!(
-        maintenance["sections"]["references"][0][1], true,
+        maintenance["sections"]["references"][0][2], true,
         "{maintenance}"
     );
     let unbumped = bins.iter().find(|b| b["bin"] == "none").expect("bin");

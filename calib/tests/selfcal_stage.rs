@@ -422,9 +422,15 @@ fn the_drift_check_uses_the_covariance_of_the_calibration_it_checks() {
 
 /// A `check` batch of `views` `shift_ns` later, solved; the stage's outputs of the batch.
 fn check_batch(h: &mut Harness, views: &[CalibView], shift_ns: u64) -> Vec<(String, Msg)> {
+    batch(h, "check", views, shift_ns)
+}
+
+/// A batch `kind` (`check`, `extend`, `collect`) of `views` `shift_ns` later, solved; the
+/// stage's outputs of the batch.
+fn batch(h: &mut Harness, kind: &str, views: &[CalibView], shift_ns: u64) -> Vec<(String, Msg)> {
     let command = |c: &str| Msg::String(msgs::std_msgs::String { data: c.to_owned() });
     let before = h.out.len();
-    h.feed(shift_ns, topics::CALIBRATION_COMMAND, &command("check"));
+    h.feed(shift_ns, topics::CALIBRATION_COMMAND, &command(kind));
     for v in views {
         let mut later = v.clone();
         later.stamp_ns += shift_ns;
@@ -524,4 +530,43 @@ fn a_check_reference_is_taken_then_kept_and_a_knock_since_it_shows() {
     ));
     assert_eq!(code, "drifted", "{text}");
     assert!(none.is_empty(), "no reference after a drift: {text}");
+
+    // Once a calibration is accepted in the run, the reference is another mount's: the
+    // check is against the new camera edge.
+    let mut h = stage(Some(before_knock));
+    batch(&mut h, "collect", &views, 1_000_000_000_000);
+    assert_eq!(h.stage.accepted(), 1, "warnings: {:?}", h.logs(Log::WARN));
+    let (code, text, _) = check_answer(&check_batch(&mut h, &views, 2_000_000_000_000));
+    assert_eq!(code, "consistent", "{text}");
+    assert!(text.contains("against the camera edge"), "{text}");
+}
+
+/// A check that an `extend` completed takes as its reference the estimate of the views it
+/// started with (the poses later checks repeat), not that of all its views.
+#[test]
+fn an_extended_check_takes_its_reference_from_the_views_it_started_with() {
+    let x_true = sup::true_x();
+    let (views, cam) = sup::views(&sup::camera_poses(8), &x_true, true);
+    let mut h = Harness::new(CalibrationStageConfig {
+        captures_to_solve: 0,
+        nominal_tool0_from_camera: x_true,
+        ..CalibrationStageConfig::default()
+    });
+    h.feed(500_000_000, topics::CAMERA_COLOR_INFO, &camera_info(&cam));
+    let (code, text, first) = check_answer(&batch(&mut h, "check", &views[..4], 1_000_000_000_000));
+    assert_eq!(code, "consistent", "{text}");
+    assert_eq!(first.len(), 1, "{text}");
+    let (code, text, extended) =
+        check_answer(&batch(&mut h, "extend", &views[4..], 2_000_000_000_000));
+    assert_eq!(code, "consistent", "{text}");
+    assert!(text.contains("(8 views)"), "{text}");
+    assert!(text.contains("its first 4 views"), "{text}");
+    assert_edges(&extended, &first);
+    // ... which is not what all eight views support.
+    let (_, _, all) = check_answer(&batch(&mut h, "check", &views, 3_000_000_000_000));
+    let (rot_deg, trans_m) = pose_error(&all[0], &first[0]);
+    assert!(
+        rot_deg > 1e-6 || trans_m > 1e-9,
+        "{rot_deg} deg, {trans_m} m"
+    );
 }

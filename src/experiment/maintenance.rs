@@ -287,28 +287,31 @@ pub fn run(settings: &Settings) -> Result<()> {
     json.parameter("camera_scale", camera_scale)?;
     json.parameter("sites", settings.sites_label())?;
     json.section("bins", &bins)?;
+    // Each run by its robot's seed and its day's noise seed: any one can be rerun alone.
     let answers: Vec<_> = results
         .iter()
         .map(|r| {
             (
                 r.spec.condition.clone(),
                 r.spec.seed,
+                r.spec.noise_seed,
                 r.verdict.calibration.clone(),
             )
         })
         .collect();
     json.section("answers", &answers)?;
-    // Per robot: whether its reference run left a reference (the others checked against
-    // the camera edge).
-    let mut references: Vec<(u64, bool)> = Vec::new();
+    // Per robot: its reference run's noise seed, and whether it left a reference (the
+    // others checked against the camera edge).
+    let mut references: Vec<(u64, Option<u64>, bool)> = Vec::new();
     for r in &results {
         let has = r
             .spec
             .carried
             .as_ref()
             .is_some_and(|c| c.contains("calibration.reference_xyz_m"));
-        if !references.iter().any(|(seed, _)| *seed == r.spec.seed) {
-            references.push((r.spec.seed, has));
+        if !references.iter().any(|(seed, _, _)| *seed == r.spec.seed) {
+            let day = r.spec.earlier_run.as_ref().and_then(|e| e.noise_seed);
+            references.push((r.spec.seed, day, has));
         }
     }
     json.section("references", &references)?;

@@ -60,20 +60,17 @@ impl RunSpec {
     /// The scenario file of the run.
     #[must_use]
     pub fn scenario_toml(&self) -> String {
+        let noise_seed = self
+            .noise_seed
+            .map_or_else(String::new, |n| format!("noise_seed = {n}\n"));
         let mut t = format!(
-            "name = \"{task}-{seed}\"\nseed = {seed}\nduration_s = {dur:?}\nhour = {hour:?}\ntask = \"{task}\"\n\n[wind]\nmean_mps = {wind:?}\n",
+            "name = \"{task}-{seed}\"\nseed = {seed}\n{noise_seed}duration_s = {dur:?}\nhour = {hour:?}\ntask = \"{task}\"\n\n[wind]\nmean_mps = {wind:?}\n",
             task = self.task,
             seed = self.seed,
             dur = self.duration_s,
             hour = self.hour,
             wind = self.wind_mps,
         );
-        if let Some(noise_seed) = self.noise_seed {
-            t.insert_str(
-                t.find("duration_s").unwrap_or(0),
-                &format!("noise_seed = {noise_seed}\n"),
-            );
-        }
         if let Some((rot, trans)) = self.bump {
             t.push_str("\n[bump]\ntime_s = 0.5\n");
             if rot.is_finite() {
@@ -346,10 +343,12 @@ pub fn run_selected(
 ) -> Result<Option<Vec<RunResult>>> {
     settings.run_items(specs.len(), |ids| {
         let mut chosen: Vec<RunSpec> = ids.iter().filter_map(|&i| specs.get(i).cloned()).collect();
-        // The earlier runs the chosen ones start from, each once, before them.
+        // The earlier runs the chosen ones start from, each once, before them; told apart by
+        // their JSON (a NaN bump, drawn from the seed, is not equal to itself).
+        let key = |s: &RunSpec| serde_json::to_string(s).unwrap_or_default();
         let mut earlier: Vec<RunSpec> = Vec::new();
         for e in chosen.iter().filter_map(|s| s.earlier_run.as_deref()) {
-            if !earlier.contains(e) {
+            if !earlier.iter().any(|x| key(x) == key(e)) {
                 earlier.push(e.clone());
             }
         }
@@ -365,7 +364,7 @@ pub fn run_selected(
             if let Some(e) = spec.earlier_run.as_deref() {
                 spec.carried = earlier
                     .iter()
-                    .position(|x| x == e)
+                    .position(|x| key(x) == key(e))
                     .and_then(|i| carried[i].clone());
             }
         }
@@ -505,4 +504,46 @@ pub fn runs_dir(out: &super::OutputDir) -> Result<PathBuf> {
     let dir = out.root().join("runs");
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     Ok(dir)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A later day of a robot: its scenario has the world's seed, its own noise seed and the
+    /// parameters carried from the earlier run, and the simulator and stages read them.
+    #[test]
+    fn a_later_days_scenario_carries_its_noise_seed_and_parameters() {
+        let spec = RunSpec {
+            condition: "trans 3 mm".into(),
+            task: "check".into(),
+            seed: 21,
+            hour: 10.0,
+            wind_mps: 0.5,
+            bump: Some((0.0, 3.0)),
+            self_maintenance: true,
+            camera_scale: 0.25,
+            duration_s: 60.0,
+            seeded_site: true,
+            wrist_light: false,
+            noise_seed: Some(9_007_199_254_740_993),
+            earlier_run: None,
+            carried: Some(
+                "calibration.mount_xyz_m = [0.06, -0.04, 0.09]\n\
+                 calibration.mount_rpy_deg = [0.5, -1.1, 90.0]\n\
+                 calibration.reference_xyz_m = [0.0601, -0.04, 0.09]\n\
+                 calibration.reference_rpy_deg = [0.5, -1.1, 90.0]\n"
+                    .into(),
+            ),
+        };
+        let text = spec.scenario_toml();
+        let scenario = scenario::Scenario::parse(&text, "t").expect("a scenario");
+        assert_eq!(scenario.seed, 21);
+        let sim = sim::SimConfig::of_scenario(&scenario).expect("sim config");
+        assert_eq!(sim.noise_seed, 9_007_199_254_740_993, "{text}");
+        let mut r = scenario::Reader::new(&scenario.params);
+        let c = calib::selfcal::CalibrationStageConfig::from_params(&mut r, 0).expect("stage");
+        let reference = c.check_reference.expect("the carried reference");
+        assert!((reference.translation.x - 0.0601).abs() < 1e-12, "{text}");
+    }
 }

@@ -155,7 +155,9 @@
 //! | the camera edge (the calibrated X) | 49 / 0 / 1 | 50/50 | 48/50, 1 Consistent (a miss), 1 CannotTell | 3/50 | 42/50 |
 //! | a reference from an unbumped check of the same robot on another day | 50 / 0 / 0 | 50/50 | 49/50, 1 CannotTell | 0/50 | 40/50 |
 //!
-//! (49 of the 50 robots' reference runs left a reference; the 50th checks against its edge.)
+//! (49 of the 50 robots' reference runs left a reference; the 50th checks against its edge.
+//! The two rows are two designs, not one ablation: the first is 50 independent runs per bin,
+//! the second 50 robots each checked once per bin on a day of its own.)
 //! Against the edge, the unbumped estimates of 0.55-1.6 mm are the check's own systematic
 //! error, the arm's kinematics at the check poses and the `camera_info` error, which the
 //! reference cancels: no 3 mm bump is called consistent, and the 1 mm shifts, below the

@@ -29,7 +29,7 @@
 //!
 //! | batch | state | reason_code (kind) |
 //! |---|---|---|
-//! | check | `check` | `consistent` (INFO), `drifted` (INFO: recalibrate), `unresolved` (REFUSED: no drift seen, but the views could miss one of the target size; more views help), `cannot_tell` (REFUSED, e.g. too dark) from [`check_drift`] against the camera edge in use |
+//! | check | `check` | `consistent` (INFO), `drifted` (INFO: recalibrate), `unresolved` (REFUSED: no drift seen, but the views could miss one of the target size; more views help), `cannot_tell` (REFUSED, e.g. too dark) from [`check_drift`] against the camera edge in use, or against the carried reference (below) |
 //! | collect | `calibrate` | `accepted` (DONE: now the camera edge), `rejected` (FAILED: residuals above the limits), `refused` (REFUSED) |
 //!
 //! **The check's reference.** The camera edge carries its calibration's error, and the arm's
@@ -42,7 +42,9 @@
 //! reference that finds it consistent publishes that same reference again, never its own
 //! estimate: a reference that followed each check would let a slow creep pass unseen. Once a
 //! calibration is accepted in the run, the reference no longer belongs to the edge, and the
-//! check is against the calibration again.
+//! check is against the calibration again. A new reference is the estimate of the views the
+//! check started with, also when an `extend` added more before it could decide: later checks
+//! start with the same poses, and the arm's error at the added ones would not cancel.
 //!
 //! `extend` starts a batch of drift check views that joins the last check's views (after an
 //! `unresolved`: the task adds [`super::drift::CHECK_MOTION_MORE`], and the check of all of
@@ -413,6 +415,10 @@ pub struct CalibrationStage {
     batch: Option<Batch>,
     /// The views of the last drift check, for an `extend`.
     last_check: Vec<CalibView>,
+    /// Views of the `check` batch the current drift check started with (before any
+    /// `extend`): the reference is those views' estimate, so that it is taken at the poses
+    /// every later check repeats.
+    first_check_views: Option<usize>,
 }
 
 /// A batch of captures requested on `/calibration/command`.
@@ -454,6 +460,7 @@ impl CalibrationStage {
             captures: 0,
             last_edge_stamp: None,
             last_check: Vec::new(),
+            first_check_views: None,
             accepted: 0,
             batch: None,
         }
@@ -908,6 +915,8 @@ impl CalibrationStage {
                 self.views.clear();
                 if c == "extend" {
                     self.views = std::mem::take(&mut self.last_check);
+                } else {
+                    self.first_check_views = None;
                 }
                 self.pending.clear();
                 self.depth.clear();
@@ -928,6 +937,9 @@ impl CalibrationStage {
                 let batch = self.batch.take();
                 let (state, kind, reason, text) = match batch {
                     Some(Batch::Check) => {
+                        if self.first_check_views.is_none() {
+                            self.first_check_views = Some(self.views.len());
+                        }
                         let (kind, reason, text) = self.check(log_time, out);
                         ("check", kind, reason, text)
                     }
@@ -973,7 +985,8 @@ impl CalibrationStage {
         }
     }
 
-    /// The drift check of the batch's views against the camera edge in use.
+    /// The drift check of the batch's views against the camera edge in use, or against the
+    /// carried reference (module docs).
     fn check(
         &mut self,
         log_time: RobotTime,
@@ -1034,8 +1047,17 @@ impl CalibrationStage {
         let (level, kind, reason, text) = match &report.verdict {
             DriftVerdict::Consistent => {
                 // Module docs: a carried reference is kept, never replaced by this estimate.
-                let kept =
-                    reference.or_else(|| report.estimate.as_ref().map(|e| e.tool0_from_camera));
+                // A new one is the estimate of the views the check started with, the poses
+                // every later check repeats (not of the views an `extend` added).
+                let first = self.first_check_views.unwrap_or(views).min(views);
+                let kept = reference.or_else(|| {
+                    if first < views {
+                        check_drift(&self.views[..first], &camera, &compared_with, &params).estimate
+                    } else {
+                        report.estimate.clone()
+                    }
+                    .map(|e| e.tool0_from_camera)
+                });
                 if let Some(x) = kept {
                     out.push((
                         topics::CALIBRATION_CHECK_REFERENCE.to_owned(),
@@ -1055,10 +1077,21 @@ impl CalibrationStage {
                     "consistent",
                     format!(
                         "drift check {against}: the camera mount is where the calibration says ({views} views){numbers}; {}",
-                        if reference.is_some() {
-                            "the reference stays the check's reference (rodlog calib carry)"
-                        } else {
-                            "the X these views support is now the check's reference (rodlog calib carry)"
+                        match (reference, kept) {
+                            (Some(_), _) => {
+                                "the reference stays the check's reference (rodlog calib carry)"
+                                    .to_owned()
+                            }
+                            (None, Some(_)) if first < views => format!(
+                                "the X its first {first} views support is now the check's reference (rodlog calib carry)"
+                            ),
+                            (None, Some(_)) => {
+                                "the X these views support is now the check's reference (rodlog calib carry)"
+                                    .to_owned()
+                            }
+                            (None, None) => format!(
+                                "no reference taken: its first {first} views alone give no estimate"
+                            ),
                         }
                     ),
                 )

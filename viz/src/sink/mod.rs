@@ -12,6 +12,7 @@
 //! | `world/camera/panoramic` (`/color`) | `/panoramic/camera_info`, `/panoramic/image_raw` | `Pinhole`, `EncodedImage` |
 //! | `world/captures/{task,calibration}/<nnnn>` | each wrist depth capture with its colour image (calibration views: between `/calibration/command` `check`/`collect` and `solve`/`cancel`) | `Points3D` in `map` (camera pose from `/tf` at the capture), at most [`crate::encode::MAX_CAPTURE_POINTS`] |
 //! | `world/calibration/x_before`, `.../x_after` | a change of the `tool0` -> `camera_color_optical_frame` edge on `/tf` (a recalibration) | `Transform3D` under `tool0` + `Pinhole` frustum (grey: before, green: after) |
+//! | `world/calibration/check_reference` (`/axes`) | `/calibration/check_reference` | `Transform3D` under `tool0` to the frame `calibration/check_reference` + `TransformAxes3D` |
 //! | `world/perception/roi_cloud` | `/perception/roi_cloud` | `Points3D` in the cloud's frame |
 //! | `world/poses/<name>` (`/axes`) | `/perception/target_pose`, `/base/goal` | `Transform3D` to a named frame + `TransformAxes3D` |
 //! | `world/site/<body>`, `world/site/rod`, `world/site/wire` | [`Viz::log_site`]; the rod as believed ([`crate::site::RodBelief`]); the wire from a hanging-point estimate | `Boxes3D`, `Cylinders3D` |
