@@ -415,10 +415,10 @@ pub struct CalibrationStage {
     batch: Option<Batch>,
     /// The views of the last drift check, for an `extend`.
     last_check: Vec<CalibView>,
-    /// Views of the `check` batch the current drift check started with (before any
-    /// `extend`): the reference is those views' estimate, so that it is taken at the poses
+    /// The `check` batch the current drift check started with (before any `extend`): its
+    /// views and the `X` they supported. A new reference is that `X`, taken at the poses
     /// every later check repeats.
-    first_check_views: Option<usize>,
+    first_check: Option<(usize, Option<Isometry3<f64>>)>,
 }
 
 /// A batch of captures requested on `/calibration/command`.
@@ -460,7 +460,7 @@ impl CalibrationStage {
             captures: 0,
             last_edge_stamp: None,
             last_check: Vec::new(),
-            first_check_views: None,
+            first_check: None,
             accepted: 0,
             batch: None,
         }
@@ -916,7 +916,7 @@ impl CalibrationStage {
                 if c == "extend" {
                     self.views = std::mem::take(&mut self.last_check);
                 } else {
-                    self.first_check_views = None;
+                    self.first_check = None;
                 }
                 self.pending.clear();
                 self.depth.clear();
@@ -937,9 +937,6 @@ impl CalibrationStage {
                 let batch = self.batch.take();
                 let (state, kind, reason, text) = match batch {
                     Some(Batch::Check) => {
-                        if self.first_check_views.is_none() {
-                            self.first_check_views = Some(self.views.len());
-                        }
                         let (kind, reason, text) = self.check(log_time, out);
                         ("check", kind, reason, text)
                     }
@@ -1039,6 +1036,10 @@ impl CalibrationStage {
             )
         });
         let views = self.views.len();
+        // The first batch's estimate, kept from its own solve when an `extend` followed.
+        let (first, first_x) = *self
+            .first_check
+            .get_or_insert((views, report.estimate.as_ref().map(|e| e.tool0_from_camera)));
         let against = if reference.is_some() {
             "against the reference carried from an earlier run"
         } else {
@@ -1049,15 +1050,7 @@ impl CalibrationStage {
                 // Module docs: a carried reference is kept, never replaced by this estimate.
                 // A new one is the estimate of the views the check started with, the poses
                 // every later check repeats (not of the views an `extend` added).
-                let first = self.first_check_views.unwrap_or(views).min(views);
-                let kept = reference.or_else(|| {
-                    if first < views {
-                        check_drift(&self.views[..first], &camera, &compared_with, &params).estimate
-                    } else {
-                        report.estimate.clone()
-                    }
-                    .map(|e| e.tool0_from_camera)
-                });
+                let kept = reference.or(first_x);
                 if let Some(x) = kept {
                     out.push((
                         topics::CALIBRATION_CHECK_REFERENCE.to_owned(),
