@@ -109,6 +109,12 @@ pub struct ExperimentOptions {
     #[arg(long, value_enum, default_value_t = OnOff::Off)]
     #[serde(default)]
     pub wrist_light: OnOff,
+    /// `noise` only: what the wrist camera sees, `substation` (the simulated bay's
+    /// calibration cabinet, default) or `photos` (a wall of the shecar photographs with
+    /// boxes standing out of it: real image content, exact geometry and depth).
+    #[arg(long, value_enum, default_value_t = CalibScene::Substation)]
+    #[serde(default)]
+    pub scene: CalibScene,
     /// The task experiments: keep the recording of every run that did not succeed in
     /// `OUT/runs/` (for `rodlog log`, `rodlog check task`, `rodlog view`); the others are
     /// deleted. Not recorded in a shard file: it changes no number.
@@ -157,6 +163,16 @@ pub enum OnOff {
     Off,
     /// With.
     On,
+}
+
+/// `--scene` of the noise experiment.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, Serialize, Deserialize)]
+pub enum CalibScene {
+    /// The simulated substation's calibration cabinet.
+    #[default]
+    Substation,
+    /// A wall of real photographs with boxes (the shecar sample's photos).
+    Photos,
 }
 
 /// `--sites` of the task experiments.
@@ -293,6 +309,9 @@ fn run_named(
     {
         bail!("--sites is an option of the task experiments (tasks, light, wind, maintenance)");
     }
+    if options.scene == CalibScene::Photos && name != ExperimentName::Noise {
+        bail!("--scene is an option of `rodlog experiment noise`");
+    }
     if options.no_pictures && name != ExperimentName::Matchers {
         bail!("--no-pictures is an option of `rodlog experiment matchers`");
     }
@@ -310,6 +329,7 @@ fn run_named(
             hours: options.hours.clone(),
             seeded_sites: options.sites == Sites::Seeded,
             wrist_light: options.wrist_light == OnOff::On,
+            photo_scene: options.scene == CalibScene::Photos,
             keep_failed: options.keep_failed,
             pictures: !options.no_pictures,
             out: OutputDir::create(out)?,

@@ -37,6 +37,7 @@ pub mod maintenance;
 pub mod matchers;
 pub mod motions;
 pub mod noise;
+pub mod photos;
 pub mod progress;
 pub mod report;
 pub mod selfcal_peer;
@@ -81,6 +82,9 @@ pub struct Settings {
     pub seeded_sites: bool,
     /// `--wrist-light on`: the light experiment's robot has a wrist light.
     pub wrist_light: bool,
+    /// `--scene photos`: the noise experiment's views are of a wall of photographs
+    /// ([`photos`]) instead of the substation's calibration cabinet.
+    pub photo_scene: bool,
     /// `--keep-failed`: the task experiments keep the recordings of the runs that did not
     /// succeed.
     pub keep_failed: bool,

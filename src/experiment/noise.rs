@@ -108,6 +108,9 @@ pub struct SimContext {
     pub ours: SelfCalParams,
     /// The paper's method for `camera` (its own quadtree distribution, whatever the option).
     pub paper: SelfCalParams,
+    /// `--scene photos`: the wall of photographs the views see instead of the substation
+    /// ([`super::photos`]).
+    pub photos: Option<sim::render::photo::PhotoScene>,
 }
 
 impl SimContext {
@@ -135,6 +138,15 @@ impl SimContext {
         };
         let ours = ours_params(&camera, settings);
         let paper = SelfCalParams::for_method(&camera, SelfCalMethod::Paper);
+        let photos = if settings.photo_scene {
+            Some(super::photos::open(
+                &compose::data::shecar_dir(),
+                look_at_target(&layout),
+                layout.calibration_target_normal,
+            )?)
+        } else {
+            None
+        };
         Ok(Self {
             scene,
             layout,
@@ -142,6 +154,7 @@ impl SimContext {
             camera,
             ours,
             paper,
+            photos,
         })
     }
 }
@@ -202,6 +215,14 @@ pub fn render_trial(ctx: &SimContext, seed: u64, n_views: usize) -> Result<SimTr
         .iter()
         .enumerate()
         .map(|(i, (world_from_camera, hand))| {
+            if let Some(photos) = &ctx.photos {
+                let (rgb, depth_m) = photos.render(world_from_camera, &ctx.rays);
+                return RenderedView {
+                    rgb,
+                    depth_m,
+                    base_from_tool0: *hand,
+                };
+            }
             let f = render_rgbd_with_rays(
                 &ctx.scene,
                 world_from_camera,
@@ -260,7 +281,7 @@ pub fn trial_poses(
     let map_from_base = layout.world_from_robot_spot;
     let map_from_arm_base = map_from_base * model.base_from_arm_base(LIFT_M);
     let normal = layout.calibration_target_normal;
-    let target = layout.calibration_target_center + Vector3::new(0.0, 0.0, 0.15);
+    let target = look_at_target(layout);
     let e1 = normal.cross(&Vector3::z()).normalize();
     let e2 = normal.cross(&e1).normalize();
     let az0 = u(STREAM_VIEW, 0, 0.0, 360.0);
@@ -306,6 +327,12 @@ pub fn trial_poses(
         true_mount,
         views: poses,
     })
+}
+
+/// The point every view of a trial looks at: 15 cm above the centre of the calibration
+/// cabinet's face.
+pub fn look_at_target(layout: &sim::scene::SubstationLayout) -> Point3<f64> {
+    layout.calibration_target_center + Vector3::new(0.0, 0.0, 0.15)
 }
 
 /// The calibration views of the first `n` views of `trial` with image noise `sigma` (on
@@ -1050,6 +1077,43 @@ pub fn peer_section(
     )
 }
 
+/// Writes views 0 and 9 of trial `seed` as `images/view_NN.png` (colour, no added noise)
+/// and `images/view_NN_depth.png` (depth, near bright, none black), for a look at what the
+/// calibration saw. Not linked from the report: with `--scene photos` they show the shecar
+/// photographs (GPL-3.0), which a committed report leaves out.
+///
+/// # Errors
+/// Rendering or writing failures.
+fn write_example_views(settings: &Settings, ctx: &SimContext, seed: u64) -> Result<()> {
+    let trial = render_trial(ctx, seed, VIEWS)?;
+    let (w, h) = (ctx.camera.width, ctx.camera.height);
+    for i in [0usize, 9] {
+        let Some(view) = trial.views.get(i) else {
+            continue;
+        };
+        let colour = image::RgbImage::from_raw(w, h, view.rgb.clone()).context("view size")?;
+        colour.save(settings.out.image(&format!("view_{i:02}.png")))?;
+        let finite = view.depth_m.iter().copied().filter(|d| d.is_finite());
+        let (near, far) = finite.fold((f32::INFINITY, 0.0_f32), |(a, b), d| (a.min(d), b.max(d)));
+        let span = (far - near).max(1e-6);
+        let depth: Vec<u8> = view
+            .depth_m
+            .iter()
+            .map(|d| {
+                if d.is_finite() {
+                    (255.0 - 200.0 * (d - near) / span).round() as u8
+                } else {
+                    0
+                }
+            })
+            .collect();
+        image::GrayImage::from_raw(w, h, depth)
+            .context("depth size")?
+            .save(settings.out.image(&format!("view_{i:02}_depth.png")))?;
+    }
+    Ok(())
+}
+
 /// Runs the experiment (module docs).
 ///
 /// # Errors
@@ -1079,9 +1143,28 @@ pub fn run(settings: &Settings) -> Result<()> {
         return Ok(());
     };
     let (cells, refusals, seeds) = book_trials(&records, &conditions);
-    let mut report = Report::new("Experiment noise: hand-eye error vs image noise");
+    if ctx.photos.is_some()
+        && let Some(first) = records.first()
+    {
+        write_example_views(settings, &ctx, first.seed)?;
+    }
+    let mut report = Report::new(if ctx.photos.is_some() {
+        "Experiment noise: hand-eye error vs image noise, on a wall of photographs"
+    } else {
+        "Experiment noise: hand-eye error vs image noise"
+    });
     if let Some(note) = settings.ours_variant_note() {
         report.paragraph(&note);
+    }
+    if ctx.photos.is_some() {
+        report.paragraph(
+            "**Scene: photographs** (`--scene photos`). The views see a wall of the shecar \
+             sample's 18 photographs in the calibration cabinet's place, six tiled on the wall \
+             and the rest on three boxes standing 6-14 cm out of it: real image content, exact \
+             geometry and depth, no shading and no sensor model (the photos carry their own \
+             light; the noise below is all the noise). Poses, arm and noise are the substation \
+             trials'.",
+        );
     }
     report.paragraph(&format!(
         "{trials} trials x {VIEWS} views, rendered once per trial at {}x{} (wrist lens, \
@@ -1153,6 +1236,14 @@ pub fn run(settings: &Settings) -> Result<()> {
     results.parameter("depth_noise_per_sigma_m", DEPTH_NOISE_PER_SIGMA_M)?;
     results.parameter("width", ctx.camera.width)?;
     results.parameter("height", ctx.camera.height)?;
+    results.parameter(
+        "scene",
+        if ctx.photos.is_some() {
+            "photos"
+        } else {
+            "substation"
+        },
+    )?;
     results.section("cells", &rows)?;
     results.section("cells_all_answered", &common_rows)?;
     results.section("opencv_peer", &peer_rows)?;

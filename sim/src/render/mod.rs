@@ -49,6 +49,7 @@
 pub mod camera_model;
 pub mod depth_sensor;
 pub mod light;
+pub mod photo;
 pub mod rgb_sensor;
 pub mod shading;
 
