@@ -75,6 +75,35 @@ fn committed_reports_say_what_their_results_say() {
                     dir.display()
                 );
             }
+            // The noise experiment beside the OpenCV depth-PnP peer: | noise | ours answered
+            // | peer answered | both answered | ... | ours ahead |.
+            let peer = sections["opencv_peer"]
+                .as_array()
+                .map_or(&[][..], Vec::as_slice);
+            if peer.iter().any(|l| l["peer_runs"].as_u64() > Some(0)) {
+                let section = report
+                    .split("\n## ")
+                    .find(|part| part.starts_with("Beside the OpenCV depth-PnP peer"))
+                    .unwrap_or_else(|| panic!("{}: no peer section", dir.display()));
+                for l in peer {
+                    let runs = l["peer_runs"].as_u64().unwrap_or(0);
+                    let answered = format!("{}/{runs}", l["ours_answered"]);
+                    let row = row_of(&dir, section, &[&l["condition"], &answered.into()]);
+                    let peer_answered = runs - l["peer_refused"].as_u64().unwrap_or(0);
+                    assert_eq!(
+                        (
+                            row.get(3).map(String::as_str),
+                            row.get(4).map(String::as_str)
+                        ),
+                        (
+                            Some(format!("{peer_answered}/{runs}").as_str()),
+                            Some(l["trials"].to_string().as_str())
+                        ),
+                        "{}: peer row {row:?}",
+                        dir.display()
+                    );
+                }
+            }
         } else if let Some(variants) = sections["variants"].as_array() {
             // The ablation: | variant | change | answered/trials | ...
             assert!(!variants.is_empty(), "{}", dir.display());

@@ -88,11 +88,8 @@ impl PhotoQuad {
         }
         let p = origin + dir * t - self.corner;
         let (a, b) = (p.dot(&self.u), p.dot(&self.v));
-        (0.0..=self.size_m[0])
-            .contains(&a)
-            .then_some(())
-            .filter(|()| (0.0..=self.size_m[1]).contains(&b))
-            .map(|()| (t, a, b))
+        let inside = (0.0..=self.size_m[0]).contains(&a) && (0.0..=self.size_m[1]).contains(&b);
+        inside.then_some((t, a, b))
     }
 }
 
@@ -118,10 +115,8 @@ impl PhotoScene {
     /// A wall centred at `centre` facing `normal` (towards the camera), `up` its upward
     /// direction (made orthogonal to `normal`), tiled with `wall_tiles` (columns, rows) of
     /// the first textures at their own sizes; then `boxes`, each face with the next texture in
-    /// turn (cycling), each face's photo laid from a different texel offset.
-    ///
-    /// # Panics
-    /// Never: an empty `textures` gives an empty scene.
+    /// turn (cycling), each face's photo laid from a different texel offset. Without
+    /// textures the scene is empty.
     #[must_use]
     pub fn wall_with_boxes(
         centre: Point3<f64>,
