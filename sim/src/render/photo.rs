@@ -9,7 +9,7 @@
 //! about twice as fine as the pixels does not alias. There is no shading and no sensor
 //! model: the photos carry their own light, and noise is the caller's to add.
 
-use nalgebra::{Isometry3, Point3, Vector3};
+use nalgebra::{Isometry3, Point2, Point3, Vector3};
 use rayon::prelude::*;
 
 use super::camera_model::RayTable;
@@ -31,6 +31,9 @@ impl PhotoTexture {
     /// Bilinear sRGB lookup at texel coordinates (`x` right, `y` down, texel centres at
     /// `i + 0.5`), clamped to the photo's edge.
     fn sample(&self, x: f64, y: f64) -> [f32; 3] {
+        if self.width == 0 || self.height == 0 {
+            return [0.0; 3];
+        }
         let fx = (x - 0.5).clamp(0.0, (self.width - 1) as f64);
         let fy = (y - 0.5).clamp(0.0, (self.height - 1) as f64);
         let (x0, y0) = (fx.floor() as usize, fy.floor() as usize);
@@ -114,8 +117,9 @@ pub struct WallBox {
 impl PhotoScene {
     /// A wall centred at `centre` facing `normal` (towards the camera), `up` its upward
     /// direction (made orthogonal to `normal`), tiled with `wall_tiles` (columns, rows) of
-    /// the first textures at their own sizes; then `boxes`, each face with the next texture in
-    /// turn (cycling), each face's photo laid from a different texel offset. Without
+    /// the first textures at the first one's size; then `boxes`, each face with the next
+    /// texture not on the wall in turn (cycling), each face's photo laid from a different texel
+    /// offset. Without
     /// textures the scene is empty.
     #[must_use]
     pub fn wall_with_boxes(
@@ -171,13 +175,20 @@ impl PhotoScene {
                 (front_tl - n * d, n, down, [d, h]),
                 // Right side.
                 (front_tl + right * w, -n, down, [d, h]),
-                // Top: from the front edge back to the wall, seen from above.
+                // Top: from the wall out to the front edge, seen from above.
                 (front_tl - n * d, right, n, [w, d]),
                 // Bottom.
                 (front_tl + down * h, right, -n, [w, d]),
             ];
             for (k, (corner, u, v, size_m)) in faces.into_iter().enumerate() {
-                let t = next % textures.len();
+                // The photos not on the wall, in turn (all of them when the wall has taken
+                // every one), so no content stands at two depths.
+                let spare = textures.len().saturating_sub(cols * rows);
+                let t = if spare > 0 {
+                    cols * rows + (next - cols * rows) % spare
+                } else {
+                    next % textures.len()
+                };
                 let [tw, th] = size(t);
                 // A different part of the photo on each face, within the photo.
                 let frac = [0.13, 0.41, 0.67, 0.29, 0.83][k];
@@ -229,22 +240,6 @@ impl PhotoScene {
         let xy = rays.normalized();
         let origin = Point3::from(world_from_camera.translation.vector);
         let rot = world_from_camera.rotation;
-        // Normalised coordinates at a sub-pixel position, interpolated between pixel centres
-        // (the lens's inverse distortion is smooth at the pixel scale).
-        let xy_at = |col: f64, row: f64| -> [f64; 2] {
-            let c0 = (col.floor().max(0.0) as usize).min(w.saturating_sub(2));
-            let r0 = (row.floor().max(0.0) as usize).min(h.saturating_sub(2));
-            let (ac, ar) = (col - c0 as f64, row - r0 as f64);
-            let p = |c: usize, r: usize| xy.get(r * w + c).copied().unwrap_or([0.0, 0.0]);
-            let (p00, p10, p01, p11) = (p(c0, r0), p(c0 + 1, r0), p(c0, r0 + 1), p(c0 + 1, r0 + 1));
-            let mut out = [0.0; 2];
-            for (i, o) in out.iter_mut().enumerate() {
-                let top = p00[i] * (1.0 - ac) + p10[i] * ac;
-                let bottom = p01[i] * (1.0 - ac) + p11[i] * ac;
-                *o = top * (1.0 - ar) + bottom * ar;
-            }
-            out
-        };
         let mut rgb = vec![0u8; 3 * w * h];
         let mut depth_m = vec![f32::NAN; w * h];
         rgb.par_chunks_mut(3 * w)
@@ -260,8 +255,14 @@ impl PhotoScene {
                     }
                     let mut sum = [0.0_f32; 3];
                     for (dc, dr) in [(-0.25, -0.25), (0.25, -0.25), (-0.25, 0.25), (0.25, 0.25)] {
-                        let [x, y] = xy_at(col as f64 + dc, row as f64 + dr);
-                        if let Some(c) = self.colour(&origin, &(rot * Vector3::new(x, y, 1.0))) {
+                        // The lens's own inverse distortion, started from the pixel
+                        // centre's (the table solved it there; a sub-pixel step converges
+                        // at once). It cannot fail where the centre succeeded.
+                        let sub = Point2::new(col as f64 + dc, row as f64 + dr);
+                        let guess = Point2::new(centre[0], centre[1]);
+                        let p = k.undistort_pixel_from(&sub, &guess).unwrap_or(guess);
+                        if let Some(c) = self.colour(&origin, &(rot * Vector3::new(p.x, p.y, 1.0)))
+                        {
                             for (s, v) in sum.iter_mut().zip(c) {
                                 *s += v;
                             }
@@ -367,6 +368,27 @@ mod tests {
             }
         }
         assert!(max_diff <= 1, "green off by {max_diff}");
+    }
+
+    #[test]
+    fn box_faces_take_the_photos_not_on_the_wall() {
+        let textures = (0..18).map(|_| checker(16, 9, 0.04)).collect();
+        let b = WallBox {
+            centre_m: [0.0, 0.0],
+            size_m: [0.1, 0.1, 0.1],
+        };
+        let scene = PhotoScene::wall_with_boxes(
+            Point3::origin(),
+            Vector3::z(),
+            Vector3::y(),
+            textures,
+            (2, 3),
+            &[b, b, b],
+        );
+        assert_eq!(scene.quads.len(), 6 + 15);
+        let (wall, faces) = scene.quads.split_at(6);
+        assert!(wall.iter().enumerate().all(|(i, q)| q.texture == i));
+        assert!(faces.iter().all(|q| (6..18).contains(&q.texture)));
     }
 
     #[test]
