@@ -102,6 +102,26 @@ fn committed_reports_say_what_their_results_say() {
                         "{}: peer row {row:?}",
                         dir.display()
                     );
+                    // | ours-rgbd deg | ours-rgbd mm | peer solver | peer deg | peer mm |,
+                    // formatted as the report formats them ("-" where there is no median).
+                    let num = |key: &str, decimals: usize| {
+                        l[key]
+                            .as_f64()
+                            .map_or_else(|| "-".to_owned(), |v| format!("{v:.decimals$}"))
+                    };
+                    let medians = [
+                        num("ours_deg", 3),
+                        num("ours_mm", 2),
+                        l["peer_solver"].as_str().unwrap_or("").to_owned(),
+                        num("peer_deg", 3),
+                        num("peer_mm", 2),
+                    ];
+                    assert_eq!(
+                        row.get(5..10),
+                        Some(&medians[..]),
+                        "{}: peer medians of {row:?}",
+                        dir.display()
+                    );
                 }
             }
         } else if let Some(variants) = sections["variants"].as_array() {

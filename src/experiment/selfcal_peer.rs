@@ -212,7 +212,7 @@ pub struct LevelComparison {
     pub ours_deg: f64,
     /// Ours' median translation error, mm.
     pub ours_mm: f64,
-    /// The peer's best solver.
+    /// The peer's best solver; `-` where no trial had answers from both to compare.
     pub peer_solver: String,
     /// Its median rotation error, degrees.
     pub peer_deg: f64,
@@ -271,6 +271,12 @@ pub fn compare_level(
         .enumerate()
         .min_by(|a, b| a.1.0.total_cmp(&b.1.0))
         .unwrap_or((0, (f64::NAN, f64::NAN)));
+    // With no trial both answered every median is NaN and no solver was best.
+    let peer_solver = if peer_deg.is_finite() {
+        SOLVERS[best].to_owned()
+    } else {
+        "-".to_owned()
+    };
     LevelComparison {
         condition: condition.to_owned(),
         trials: ours_deg.len(),
@@ -279,7 +285,7 @@ pub fn compare_level(
         ours_answered,
         ours_deg: median(&ours_deg),
         ours_mm: median(&ours_mm),
-        peer_solver: SOLVERS[best].to_owned(),
+        peer_solver,
         peer_deg,
         peer_mm,
     }
@@ -354,6 +360,10 @@ mod tests {
             ..smaller_t
         };
         assert!(alone.ahead());
+        // A level where the peer answered nothing names no solver.
+        let refused: PeerOutcome = Err("the peer refused".to_owned());
+        let none = compare_level("sigma=0.30", &ours_refs, &[Some(&refused); 3]);
+        assert_eq!((none.trials, none.peer_solver.as_str()), (0, "-"));
         assert!(
             !LevelComparison {
                 ours_answered: 0,
