@@ -20,6 +20,7 @@
 //! `(R_A, t_A / |t_A|)`.
 
 use nalgebra::{Isometry3, Matrix6, Point2, Translation3, UnitQuaternion, Vector3, Vector6};
+use rayon::prelude::*;
 
 use crate::relpose::essential::essential_of;
 use crate::relpose::refine::sampson_distance;
@@ -238,6 +239,76 @@ pub fn refine_epipolar(
     })
 }
 
+/// Replicates of [`hand_error_covariance`].
+pub const HAND_ERROR_REPLICATES: usize = 24;
+
+/// The covariance of the epipolar X that hand-pose error varying from view to view makes
+/// (parameters `(theta, t)` in rad and m, as [`crate::handeye::uncertainty`]'s), propagated
+/// by Monte Carlo: in replicate `r` each view `v` of `views` gets its own flange error
+/// `E_v = (exp(w_v), u_v)`, `w_v ~ N(0, sigma_rot_rad^2 I)`, `u_v ~ N(0, sigma_trans_m^2 I)`
+/// (counter-based normals of `seed`, so the result does not depend on the thread count),
+/// each pair's hand motion becomes `E_i^-1 B_ij E_j` (the views' poses `B_v E_v`), X is
+/// refined again from `x` on the pairs' unchanged correspondences, and
+///
+/// ```text
+/// Sigma_hand = 1/R sum_r d_r d_r^T,   d_r = (log(R_r R^T), t_r - t)
+/// ```
+///
+/// Why mono needs it: the epipolar constraint takes the camera translation's direction
+/// from `X^-1 B X`, so a hand translation error of `e` over a baseline `b` turns the
+/// predicted direction by about `e / b`, and the images measure that direction well: X's
+/// rotation follows the hand error far more than from pose pairs, where only rotations
+/// carry it. A smooth kinematic error (one DH table, nearby configurations) moves the views
+/// alike, so leaving a view out (the jackknife) does not show it. `views[k]` is the `(i, j)`
+/// of `pairs[k]`; `None` without two views to perturb or when a replicate fails.
+pub fn hand_error_covariance(
+    pairs: &[EpipolarPair],
+    views: &[(usize, usize)],
+    x: &Isometry3<f64>,
+    params: &EpipolarParams,
+    sigma_rot_rad: f64,
+    sigma_trans_m: f64,
+    seed: u64,
+) -> Option<Matrix6<f64>> {
+    const STREAM: u64 = 0x4841_4e44; // "HAND"
+    if pairs.len() != views.len() || pairs.is_empty() {
+        return None;
+    }
+    if sigma_rot_rad == 0.0 && sigma_trans_m == 0.0 {
+        return Some(Matrix6::zeros());
+    }
+    let flange_error = |r: usize, v: usize| {
+        let n = |c: usize| rng::counter::normal(seed, STREAM + r as u64, (6 * v + c) as u64);
+        Isometry3::from_parts(
+            Translation3::from(Vector3::new(n(3), n(4), n(5)) * sigma_trans_m),
+            UnitQuaternion::from_scaled_axis(Vector3::new(n(0), n(1), n(2)) * sigma_rot_rad),
+        )
+    };
+    let replicates: Vec<Option<Vector6<f64>>> = (0..HAND_ERROR_REPLICATES)
+        .into_par_iter()
+        .map(|r| {
+            let perturbed: Vec<EpipolarPair> = pairs
+                .iter()
+                .zip(views)
+                .map(|(p, &(i, j))| EpipolarPair {
+                    hand: flange_error(r, i).inverse() * p.hand * flange_error(r, j),
+                    ..p.clone()
+                })
+                .collect();
+            let xr = refine_epipolar(&perturbed, x, params)?.tool0_from_camera;
+            let w = (xr.rotation * x.rotation.inverse()).scaled_axis();
+            let t = xr.translation.vector - x.translation.vector;
+            Some(Vector6::new(w.x, w.y, w.z, t.x, t.y, t.z))
+        })
+        .collect();
+    let d: Vec<Vector6<f64>> = replicates.into_iter().collect::<Option<_>>()?;
+    let cov = d
+        .iter()
+        .fold(Matrix6::zeros(), |a, v| a + v * v.transpose())
+        / d.len() as f64;
+    cov.iter().all(|v| v.is_finite()).then_some(cov)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -291,5 +362,94 @@ mod tests {
         let (deg, m) = crate::handeye::pose_error(&rep.tool0_from_camera, &x);
         assert!(deg < 1e-5 && m < 1e-6, "{deg} deg, {m} m");
         assert!(rep.rms_final < 1e-9 && rep.rms_initial > 1e-3, "{rep:?}");
+    }
+
+    /// The Monte Carlo hand-error covariance covers the error it models: views whose
+    /// measured hand poses carry independent flange errors of 0.05 deg / 0.5 mm per axis,
+    /// exact correspondences (the true motions), X refined on the measured hands. Over 200
+    /// calibrations the squared Mahalanobis distance of X's rotation and translation error
+    /// against the covariance is under chi-square(3)'s 95 % point in 88-99 % of them; the
+    /// result is the same on every call (counter-based draws).
+    #[test]
+    fn the_hand_error_covariance_covers_the_error_it_models() {
+        let n = |seed: u64, stream: u64, k: u64| rng::counter::normal(seed, stream, k);
+        let x = iso([0.2, -1.0, 0.4], 12.0, [0.03, -0.06, 0.09]);
+        let (sigma_rot, sigma_t) = (0.05_f64.to_radians(), 0.5e-3);
+        let params = EpipolarParams::default();
+        let trials = 200;
+        let mut within = [0usize; 2];
+        for t in 0..trials {
+            let draw = |stream: u64, k: u64, s: f64| {
+                Vector3::new(
+                    n(t, stream, 3 * k),
+                    n(t, stream, 3 * k + 1),
+                    n(t, stream, 3 * k + 2),
+                ) * s
+            };
+            let views = 8u64;
+            let hands: Vec<Isometry3<f64>> = (0..views)
+                .map(|v| {
+                    Isometry3::from_parts(
+                        Translation3::from(draw(1, v, 0.1)),
+                        UnitQuaternion::from_scaled_axis(draw(2, v, 0.3)),
+                    )
+                })
+                .collect();
+            let measured: Vec<Isometry3<f64>> = (0..views)
+                .map(|v| {
+                    hands[v as usize]
+                        * Isometry3::from_parts(
+                            Translation3::from(draw(3, v, sigma_t)),
+                            UnitQuaternion::from_scaled_axis(draw(4, v, sigma_rot)),
+                        )
+                })
+                .collect();
+            let (mut pairs, mut ij) = (Vec::new(), Vec::new());
+            for i in 0..views as usize {
+                for j in i + 1..views as usize {
+                    let a = x.inverse() * hands[i].inverse() * hands[j] * x;
+                    let (mut x_i, mut x_j) = (Vec::new(), Vec::new());
+                    for k in 0..24u64 {
+                        let u =
+                            |c: u64| rng::counter::uniform(t, 5 + c, (i * 64 + j) as u64 * 64 + k);
+                        let p_j = Point3::new(u(0) - 0.5, u(1) - 0.5, 0.8 + 0.4 * u(2)) * 0.6;
+                        let p_i = a * p_j;
+                        if p_i.z > 0.1 {
+                            x_j.push(Point2::new(p_j.x / p_j.z, p_j.y / p_j.z));
+                            x_i.push(Point2::new(p_i.x / p_i.z, p_i.y / p_i.z));
+                        }
+                    }
+                    let hand = measured[i].inverse() * measured[j];
+                    pairs.push(EpipolarPair { hand, x_i, x_j });
+                    ij.push((i, j));
+                }
+            }
+            let estimate = refine_epipolar(&pairs, &x, &params).expect("refined");
+            let x_hat = estimate.tool0_from_camera;
+            let cov = hand_error_covariance(&pairs, &ij, &x_hat, &params, sigma_rot, sigma_t, 7)
+                .expect("a covariance");
+            if t == 0 {
+                let again =
+                    hand_error_covariance(&pairs, &ij, &x_hat, &params, sigma_rot, sigma_t, 7);
+                assert_eq!(again, Some(cov));
+                let none = hand_error_covariance(&pairs, &ij, &x_hat, &params, 0.0, 0.0, 7);
+                assert_eq!(none, Some(Matrix6::zeros()));
+            }
+            // As `handeye::uncertainty::mahalanobis`: each error against its 3x3 block.
+            let r = (x_hat.rotation * x.rotation.inverse()).scaled_axis();
+            let d = x_hat.translation.vector - x.translation.vector;
+            let m2 = |o: usize, v: &Vector3<f64>| {
+                let b = cov.fixed_view::<3, 3>(o, o).into_owned();
+                b.try_inverse().map_or(f64::INFINITY, |bi| v.dot(&(bi * v)))
+            };
+            let (r2, t2) = (m2(0, &r), m2(3, &d));
+            within[0] += usize::from(r2 <= 7.81);
+            within[1] += usize::from(t2 <= 7.81);
+        }
+        let share = within.map(|k| k as f64 / trials as f64);
+        eprintln!("rotation, translation within chi2(3) 95%: {share:?}");
+        for s in share {
+            assert!((0.88..=0.99).contains(&s), "{share:?}");
+        }
     }
 }

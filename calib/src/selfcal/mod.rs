@@ -107,6 +107,7 @@ pub mod carry;
 pub mod drift;
 pub mod epipolar;
 pub mod eq15;
+pub mod hand_error;
 pub mod image_motion;
 pub mod messages;
 pub mod method;
@@ -124,7 +125,7 @@ pub use drift::{CHECK_MOTION, CannotTell, DriftParams, DriftReport, DriftVerdict
 pub use messages::views_from_messages;
 pub use method::{FinalRefinement, STEP_NAMES, SelfCalMethod, Steps};
 pub use pipeline::{
-    ConsistencyLimits, SelfCalParams, SelfCalResult, SharedHandError, self_calibrate,
+    ConsistencyLimits, SelfCalParams, SelfCalResult, SharedHandError, ViewHandError, self_calibrate,
 };
 pub use stage::{CalibrationStage, CalibrationStageConfig};
 pub use views::CalibView;

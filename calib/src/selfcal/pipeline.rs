@@ -5,11 +5,12 @@
 //! collection, each pair's RANSAC has its own seed ([`pair_seed`]), all reductions are
 //! sequential: the result does not depend on the thread count.
 
-use nalgebra::{Isometry3, Matrix6, Point2, Point3, Translation3, Vector3, Vector6};
+use nalgebra::{Isometry3, Matrix6, Point2, Point3, Translation3, Vector3};
 use rayon::prelude::*;
 
-use super::epipolar::{EpipolarPair, EpipolarParams, refine_epipolar};
+use super::epipolar::{EpipolarPair, EpipolarParams, hand_error_covariance, refine_epipolar};
 use super::eq15::{Eq15Params, Eq15Report};
+pub use super::hand_error::{SharedHandError, ViewHandError, per_axis_covariance};
 use super::method::{FinalRefinement, SelfCalMethod, Steps};
 use super::motion::{PairMotion, keypoint_depth_support, mono_motion, pair_seed, rgbd_motion};
 use super::pairs::{
@@ -87,56 +88,9 @@ pub struct SelfCalParams {
     /// The hand poses' error that every view shares, added to X's covariance (default
     /// [`SharedHandError::AUBO_I10_NOMINAL`]).
     pub shared_hand_error: SharedHandError,
-}
-
-/// The part of the hand poses' error that every view shares at the flange, 1-sigma per
-/// axis: the arm's kinematic model error where the views' configurations are alike.
-///
-/// With `B_k' = B_k E` for every view, each pair's hand motion becomes `E^-1 B_ij E` and
-/// `AX = XB` is solved exactly by `E^-1 X`: X takes the error whole while the pairs agree
-/// with it, so neither their residuals nor the jackknife over views can show it (a shared
-/// error on the base side, `F B_k`, cancels in the pair motions instead). Its covariance,
-/// `diag(sigma_R^2 I_3, sigma_t^2 I_3)` ([`Self::covariance`]), is added to the reported one.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SharedHandError {
-    /// Rotation, degrees per axis.
-    pub rot_deg: f64,
-    /// Translation, millimetres per axis.
-    pub trans_mm: f64,
-}
-
-impl SharedHandError {
-    /// None: hand poses whose errors are independent from view to view.
-    pub const NONE: Self = Self {
-        rot_deg: 0.0,
-        trans_mm: 0.0,
-    };
-    /// The AUBO i10 with its nominal DH table, each row known to 0.2 mm / 0.02 deg (the
-    /// simulated arm's perturbation): 0.025 deg / 0.3 mm. Measured on `rodlog experiment
-    /// noise`'s 400 first trials without rendering (exact camera poses, the true arm's
-    /// perturbation and encoder noise on the hand poses): X from the pose pairs is off by
-    /// 0.0245 deg / 0.293 mm RMS per axis, and the jackknife over views alone holds the
-    /// chi-square(3) 95 % test in only 14 % / 22 % of the trials. A real arm's figure comes
-    /// from its kinematic calibration (or the maker's accuracy).
-    pub const AUBO_I10_NOMINAL: Self = Self {
-        rot_deg: 0.025,
-        trans_mm: 0.3,
-    };
-
-    /// `diag(sigma_R^2 I_3, sigma_t^2 I_3)`, parameters `(theta, t)` in rad and m
-    /// ([`per_axis_covariance`]).
-    pub fn covariance(&self) -> Matrix6<f64> {
-        per_axis_covariance(self.rot_deg, self.trans_mm)
-    }
-}
-
-/// The covariance of an X known to `rot_deg` / `trans_mm` (1-sigma per axis, the same on
-/// each): `diag(sigma_R^2 I_3, sigma_t^2 I_3)`, parameters `(theta, t)` in rad and m.
-#[must_use]
-pub fn per_axis_covariance(rot_deg: f64, trans_mm: f64) -> Matrix6<f64> {
-    let r = rot_deg.to_radians().powi(2);
-    let t = (trans_mm * 1e-3).powi(2);
-    Matrix6::from_diagonal(&Vector6::new(r, r, r, t, t, t))
+    /// The hand poses' error that varies from view to view, propagated into the monocular
+    /// covariance (default [`ViewHandError::AUBO_I10_NOMINAL`]).
+    pub view_hand_error: ViewHandError,
 }
 
 /// The consistency refusal of the final X (never a wrong X): [`self_calibrate`]
@@ -228,6 +182,7 @@ impl Default for SelfCalParams {
             seed: 0,
             consistency: ConsistencyLimits::default(),
             shared_hand_error: SharedHandError::AUBO_I10_NOMINAL,
+            view_hand_error: ViewHandError::AUBO_I10_NOMINAL,
         }
     }
 }
@@ -568,6 +523,34 @@ fn jackknife_epipolar(
     })
 }
 
+/// The covariance the view-to-view hand error makes in the epipolar X
+/// ([`hand_error_covariance`] over the used pairs' inliers, seeded by the RANSAC seed);
+/// `None` when a replicate's refinement fails.
+fn epipolar_hand_error(
+    camera: &CameraModel,
+    params: &SelfCalParams,
+    matches: &[PairMatches],
+    reports: &[PairReport],
+    motions: &[RelativeMotion],
+    x: &Isometry3<f64>,
+) -> Option<Matrix6<f64>> {
+    let (views, pairs): (Vec<(usize, usize)>, Vec<EpipolarPair>) =
+        epipolar_pairs(camera, matches, reports, motions)
+            .into_iter()
+            .filter_map(|(k, p)| reports.get(k).map(|r| ((r.i, r.j), p)))
+            .unzip();
+    let e = params.view_hand_error;
+    hand_error_covariance(
+        &pairs,
+        &views,
+        x,
+        &epipolar_params(camera, params),
+        e.rot_deg.to_radians(),
+        e.trans_mm * 1e-3,
+        params.seed,
+    )
+}
+
 /// Mono: X refined on all used pairs' epipolar constraints ([`super::epipolar`]); the
 /// motions' per-pair scales and the solution's residual medians then follow the new X.
 /// Its 1-sigma replaces the pair-scatter uncertainty. `false` (X left as it was) when the
@@ -788,7 +771,14 @@ fn solve_pair_motions(
     let final_round = check != Check::FirstRound;
     let jackknife = || {
         if epipolar {
+            // With the hand error from view to view, which the epipolar X follows and no
+            // resampling of the views shows (`epipolar::hand_error_covariance`).
+            let x = &solution.tool0_from_camera;
             jackknife_epipolar(camera, params, &matches, &reports, &motions, &solution)
+                .zip(epipolar_hand_error(
+                    camera, params, &matches, &reports, &motions, x,
+                ))
+                .map(|(jack, hand)| jack + hand)
         } else {
             jackknife_over_views(&reports, &motions, mode, &opts, &solution)
         }

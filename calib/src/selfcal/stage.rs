@@ -109,7 +109,7 @@ use super::pairs::extract_features;
 use super::views::{CalibView, intensity_stats};
 use super::{
     MIN_VIEWS, SelfCalError, SelfCalMethod, SelfCalParams, SelfCalResult, SharedHandError,
-    self_calibrate,
+    ViewHandError, self_calibrate,
 };
 use crate::features::KeypointDistribution;
 use crate::relpose::CameraModel;
@@ -176,6 +176,10 @@ pub struct CalibrationStageConfig {
     /// covariance ([`SelfCalParams::shared_hand_error`]). Default
     /// [`SharedHandError::AUBO_I10_NOMINAL`].
     pub shared_hand_error: SharedHandError,
+    /// The arm's hand-pose error that varies from view to view, propagated into a
+    /// monocular calibration's covariance ([`SelfCalParams::view_hand_error`]). Default
+    /// [`ViewHandError::AUBO_I10_NOMINAL`].
+    pub view_hand_error: ViewHandError,
 }
 
 impl Default for CalibrationStageConfig {
@@ -199,6 +203,7 @@ impl Default for CalibrationStageConfig {
             orb_distribution: None,
             method: SelfCalMethod::Ours,
             shared_hand_error: SharedHandError::AUBO_I10_NOMINAL,
+            view_hand_error: ViewHandError::AUBO_I10_NOMINAL,
         }
     }
 }
@@ -369,6 +374,20 @@ impl CalibrationStageConfig {
                 trans_mm: s.non_negative(
                     "shared_hand_error_trans_mm",
                     d.shared_hand_error.trans_mm,
+                    "mm",
+                    "... its translation",
+                )?,
+            },
+            view_hand_error: ViewHandError {
+                rot_deg: s.non_negative(
+                    "view_hand_error_rot_deg",
+                    d.view_hand_error.rot_deg,
+                    "deg",
+                    "the arm's hand-pose error that varies from view to view (1-sigma per axis at the flange), propagated into a monocular calibration's uncertainty",
+                )?,
+                trans_mm: s.non_negative(
+                    "view_hand_error_trans_mm",
+                    d.view_hand_error.trans_mm,
                     "mm",
                     "... its translation",
                 )?,
@@ -721,6 +740,7 @@ impl CalibrationStage {
         let mut p = SelfCalParams::for_method(camera, self.config.method);
         p.seed = self.config.seed;
         p.shared_hand_error = self.config.shared_hand_error;
+        p.view_hand_error = self.config.view_hand_error;
         if let Some(d) = self.config.orb_distribution {
             p.orb.distribution = d;
         }
