@@ -9,8 +9,8 @@ mod selfcal_support;
 
 use calib::handeye::pose_error;
 use calib::selfcal::{
-    Mode, SelfCalError, SelfCalMethod, SelfCalParams, SharedHandError, calibration_yaml,
-    result_json, self_calibrate,
+    Mode, SelfCalError, SelfCalMethod, SelfCalParams, SharedHandError, ViewHandError,
+    calibration_yaml, result_json, self_calibrate,
 };
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use selfcal_support as sup;
@@ -75,15 +75,26 @@ fn selfcal_rgbd_synthetic_recovers_asymmetric_mount() {
         shared_hand_error: SharedHandError::NONE,
         ..SelfCalParams::default()
     };
-    let alone = self_calibrate(&views, &cam, &none).expect("self-calibration");
+    let added = added_covariance(&views, &cam, &none, &res);
+    let shared = SharedHandError::AUBO_I10_NOMINAL.covariance();
+    assert!((added - shared).abs().max() < 1e-15, "{added}");
+}
+
+/// What `res` (default parameters) adds to the covariance of the calibration of the same
+/// views under `without`, which must give the same X.
+fn added_covariance(
+    views: &[calib::selfcal::CalibView],
+    cam: &calib::relpose::CameraModel,
+    without: &SelfCalParams,
+    res: &calib::selfcal::SelfCalResult,
+) -> nalgebra::Matrix6<f64> {
+    let alone = self_calibrate(views, cam, without).expect("self-calibration");
     assert_eq!(
         alone.solution.tool0_from_camera,
         res.solution.tool0_from_camera
     );
-    let added = res.solution.covariance.expect("a covariance")
-        - alone.solution.covariance.expect("a covariance");
-    let shared = SharedHandError::AUBO_I10_NOMINAL.covariance();
-    assert!((added - shared).abs().max() < 1e-15, "{added}");
+    res.solution.covariance.expect("a covariance")
+        - alone.solution.covariance.expect("a covariance")
 }
 
 #[test]
@@ -103,6 +114,29 @@ fn selfcal_mono_synthetic_recovers_mount_with_scale_from_hand() {
     );
     assert!(rot_deg < 0.2, "rotation error {rot_deg} deg");
     assert!(t_m < 5e-3, "translation error {} mm", t_m * 1e3);
+    // The view-to-view hand error joins the covariance (the same X without it).
+    let none = SelfCalParams {
+        view_hand_error: ViewHandError::NONE,
+        ..SelfCalParams::default()
+    };
+    let added = added_covariance(&views, &cam, &none, &res);
+    let trace = |o: usize| (0..3).map(|k| added[(o + k, o + k)]).sum::<f64>();
+    assert!(trace(0) > 0.0 && trace(3) > 0.0, "{added}");
+    assert!(
+        added.symmetric_eigen().eigenvalues.min() > -1e-18,
+        "{added}"
+    );
+    // With too few views for the jackknife (6) it joins the sigmas.
+    let (few, cam6) = sup::views(&sup::camera_poses(6), &x_true, false);
+    let with = self_calibrate(&few, &cam6, &SelfCalParams::default()).expect("6 views");
+    let without = self_calibrate(&few, &cam6, &none).expect("6 views");
+    assert!(with.solution.covariance.is_none());
+    assert!(
+        with.solution.sigma_rot_deg > without.solution.sigma_rot_deg,
+        "{} vs {} deg",
+        with.solution.sigma_rot_deg,
+        without.solution.sigma_rot_deg
+    );
 }
 
 #[test]

@@ -332,7 +332,8 @@ pub enum UncertaintySource {
     /// The Gauss-Newton covariance at the estimate, `P / M` inflated.
     Linearised,
     /// The jackknife over views ([`uncertainty::jackknife_over_views`]), from
-    /// [`uncertainty::MIN_JACKKNIFE_VIEWS`] views.
+    /// [`uncertainty::MIN_JACKKNIFE_VIEWS`] views (the self-calibration adds to it the hand
+    /// errors no resampling of the views shows, [`crate::selfcal::hand_error`]).
     Jackknife,
 }
 

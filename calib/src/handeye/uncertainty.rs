@@ -42,7 +42,7 @@
 //! model error where the views' configurations are alike): X takes it whole and the pairs
 //! agree. The self-calibration adds it ([`crate::selfcal::SharedHandError`]), and in mono
 //! also the hand error that varies from view to view, which the epipolar refinement turns
-//! into rotation error ([`crate::selfcal::ViewHandError`]).
+//! into error of X, its rotation most ([`crate::selfcal::ViewHandError`]).
 //!
 //! **Per-motion scales** ([`evaluate_per_motion_scale`], the monocular self-calibration): each
 //! eye translation carries its own fitted scale, a nuisance parameter. Holding them fixed

@@ -257,10 +257,15 @@ pub const HAND_ERROR_REPLICATES: usize = 24;
 /// Why mono needs it: the epipolar constraint takes the camera translation's direction
 /// from `X^-1 B X`, so a hand translation error of `e` over a baseline `b` turns the
 /// predicted direction by about `e / b`, and the images measure that direction well: X's
-/// rotation follows the hand error far more than from pose pairs, where only rotations
-/// carry it. A smooth kinematic error (one DH table, nearby configurations) moves the views
-/// alike, so leaving a view out (the jackknife) does not show it. `views[k]` is the `(i, j)`
-/// of `pairs[k]`; `None` without two views to perturb or when a replicate fails.
+/// rotation follows the hand error far more than it does from pose pairs, where only
+/// rotations carry it. A smooth kinematic error (one DH table, nearby configurations) moves
+/// the views alike, so leaving a view out (the jackknife) does not show it. Independent
+/// draws per view stand in for that correlated error, with the pairs' error matched
+/// ([`super::ViewHandError`]); the part of the error that is truly independent per view
+/// (encoder noise) the jackknife sees as well, so it is counted twice, on the safe side.
+/// The spread is taken about `x` (a bias of the replicates counts too) and without a
+/// small-sample factor. `views[k]` is the `(i, j)` of `pairs[k]`; `None` without pairs or
+/// when a replicate fails.
 pub fn hand_error_covariance(
     pairs: &[EpipolarPair],
     views: &[(usize, usize)],
@@ -373,7 +378,9 @@ mod tests {
     #[test]
     fn the_hand_error_covariance_covers_the_error_it_models() {
         let n = |seed: u64, stream: u64, k: u64| rng::counter::normal(seed, stream, k);
-        let x = iso([0.2, -1.0, 0.4], 12.0, [0.03, -0.06, 0.09]);
+        // A mount turned by 90 deg and hand motions of up to ~1 m, so that a perturbation on
+        // the wrong side or a rotation error in the wrong frame would show.
+        let x = iso([0.2, -1.0, 0.4], 90.0, [0.03, -0.06, 0.09]);
         let (sigma_rot, sigma_t) = (0.05_f64.to_radians(), 0.5e-3);
         let params = EpipolarParams::default();
         let trials = 200;
@@ -390,7 +397,7 @@ mod tests {
             let hands: Vec<Isometry3<f64>> = (0..views)
                 .map(|v| {
                     Isometry3::from_parts(
-                        Translation3::from(draw(1, v, 0.1)),
+                        Translation3::from(draw(1, v, 0.4)),
                         UnitQuaternion::from_scaled_axis(draw(2, v, 0.3)),
                     )
                 })
@@ -426,11 +433,19 @@ mod tests {
             }
             let estimate = refine_epipolar(&pairs, &x, &params).expect("refined");
             let x_hat = estimate.tool0_from_camera;
-            let cov = hand_error_covariance(&pairs, &ij, &x_hat, &params, sigma_rot, sigma_t, 7)
-                .expect("a covariance");
+            let cov =
+                hand_error_covariance(&pairs, &ij, &x_hat, &params, sigma_rot, sigma_t, 1000 + t)
+                    .expect("a covariance");
             if t == 0 {
-                let again =
-                    hand_error_covariance(&pairs, &ij, &x_hat, &params, sigma_rot, sigma_t, 7);
+                let again = hand_error_covariance(
+                    &pairs,
+                    &ij,
+                    &x_hat,
+                    &params,
+                    sigma_rot,
+                    sigma_t,
+                    1000 + t,
+                );
                 assert_eq!(again, Some(cov));
                 let none = hand_error_covariance(&pairs, &ij, &x_hat, &params, 0.0, 0.0, 7);
                 assert_eq!(none, Some(Matrix6::zeros()));

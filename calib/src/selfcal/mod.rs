@@ -122,11 +122,10 @@ pub mod yaml;
 
 pub use carry::{AcceptedCalibration, Carried, CarryFinder, CheckReference};
 pub use drift::{CHECK_MOTION, CannotTell, DriftParams, DriftReport, DriftVerdict, check_drift};
+pub use hand_error::{SharedHandError, ViewHandError};
 pub use messages::views_from_messages;
 pub use method::{FinalRefinement, STEP_NAMES, SelfCalMethod, Steps};
-pub use pipeline::{
-    ConsistencyLimits, SelfCalParams, SelfCalResult, SharedHandError, ViewHandError, self_calibrate,
-};
+pub use pipeline::{ConsistencyLimits, SelfCalParams, SelfCalResult, self_calibrate};
 pub use stage::{CalibrationStage, CalibrationStageConfig};
 pub use views::CalibView;
 pub use yaml::{calibration_yaml, result_json};

@@ -10,7 +10,7 @@ use rayon::prelude::*;
 
 use super::epipolar::{EpipolarPair, EpipolarParams, hand_error_covariance, refine_epipolar};
 use super::eq15::{Eq15Params, Eq15Report};
-pub use super::hand_error::{SharedHandError, ViewHandError, per_axis_covariance};
+use super::hand_error::{SharedHandError, ViewHandError};
 use super::method::{FinalRefinement, SelfCalMethod, Steps};
 use super::motion::{PairMotion, keypoint_depth_support, mono_motion, pair_seed, rgbd_motion};
 use super::pairs::{
@@ -596,6 +596,9 @@ fn refine_mono_epipolar(
     let reuse = (used.len() as f64 / independent_motions(reports).max(1) as f64).max(1.0);
     solution.sigma_rot_deg = rep.sigma_rot_deg * reuse.sqrt();
     solution.sigma_trans_mm = rep.sigma_trans_mm * reuse.sqrt();
+    // The pose solve's covariance described the pose solve's X, not this one.
+    solution.covariance = None;
+    solution.uncertainty = UncertaintySource::Linearised;
     true
 }
 
@@ -771,19 +774,22 @@ fn solve_pair_motions(
     let final_round = check != Check::FirstRound;
     let jackknife = || {
         if epipolar {
-            // With the hand error from view to view, which the epipolar X follows and no
-            // resampling of the views shows (`epipolar::hand_error_covariance`).
-            let x = &solution.tool0_from_camera;
             jackknife_epipolar(camera, params, &matches, &reports, &motions, &solution)
-                .zip(epipolar_hand_error(
-                    camera, params, &matches, &reports, &motions, x,
-                ))
-                .map(|(jack, hand)| jack + hand)
         } else {
             jackknife_over_views(&reports, &motions, mode, &opts, &solution)
         }
     };
+    // Mono: the hand error from view to view, which the epipolar X follows and no resampling
+    // of the views shows (`epipolar::hand_error_covariance`). Its replicates refine the same
+    // pairs the estimate was refined on, so it fails only where that refinement would.
+    let x = solution.tool0_from_camera;
+    let view_hand = (final_round && epipolar)
+        .then(|| epipolar_hand_error(camera, params, &matches, &reports, &motions, &x))
+        .flatten();
     if let Some(mut cov) = final_round.then(jackknife).flatten() {
+        if let Some(hand) = view_hand {
+            cov += hand;
+        }
         // The epipolar refinement's X and the pose solve's X answer the same question from
         // the same views; where their rotations disagree by `d`, at least one is off by
         // `|d| / 2`, which no resampling of the views shows (on calib-18 in mono they differ
@@ -793,12 +799,16 @@ fn solve_pair_motions(
         // per-pair scales absorb the translation; on calib-18 it sits 6.5 mm from the
         // epipolar X, which is 1.1 mm off with a jackknife of 1.2 mm).
         if let Some(pose_x) = before_epipolar {
-            let x = &solution.tool0_from_camera;
             let d = (pose_x.rotation * x.rotation.inverse()).scaled_axis();
             let mut rot = cov.fixed_view_mut::<3, 3>(0, 0);
             rot += d * d.transpose();
         }
         solution.set_covariance(cov, UncertaintySource::Jackknife);
+    } else if let Some(hand) = view_hand {
+        // Too few views for the jackknife: the hand error joins the epipolar sigmas.
+        let (r, t) = uncertainty::sigma_of(&hand);
+        solution.sigma_rot_deg = solution.sigma_rot_deg.hypot(r);
+        solution.sigma_trans_mm = solution.sigma_trans_mm.hypot(t);
     }
     // The hand error every view shares, which neither figure can show.
     let shared = params.shared_hand_error.covariance();

@@ -467,9 +467,9 @@ impl CalibrationStage {
         Self {
             tf: TfBuffer::new(config.tf_history_ns),
             tool0_from_camera: config.nominal_tool0_from_camera,
-            x_covariance: config
-                .mount_sigma
-                .map(|(rot_deg, trans_mm)| super::pipeline::per_axis_covariance(rot_deg, trans_mm)),
+            x_covariance: config.mount_sigma.map(|(rot_deg, trans_mm)| {
+                super::hand_error::per_axis_covariance(rot_deg, trans_mm)
+            }),
             config,
             camera: None,
             pending: Vec::new(),
