@@ -445,18 +445,24 @@ pub fn self_calibrate(
     }
 }
 
-/// The epipolar refinement's input: per used pair (its index in `reports`), the hand
-/// motion and the pair's motion-inlier keypoints, undistorted and normalised.
+/// The epipolar refinement's input, built once for the estimate and its uncertainty: per used
+/// pair, its views `(i, j)`, its hand motion and its motion-inlier keypoints, undistorted and
+/// normalised.
+struct EpipolarSet {
+    views: Vec<(usize, usize)>,
+    pairs: Vec<EpipolarPair>,
+}
+
 fn epipolar_pairs(
     camera: &CameraModel,
     matches: &[PairMatches],
     reports: &[PairReport],
     motions: &[RelativeMotion],
-) -> Vec<(usize, EpipolarPair)> {
-    used_indices(reports)
+) -> EpipolarSet {
+    let (views, pairs) = used_indices(reports)
         .iter()
         .filter_map(|&k| {
-            let (m, rm) = (matches.get(k)?, motions.get(k)?);
+            let (m, rm, r) = (matches.get(k)?, motions.get(k)?, reports.get(k)?);
             let (mut x_i, mut x_j) = (Vec::new(), Vec::new());
             for (c, _) in m.coords.iter().zip(&m.motion_inliers).filter(|(_, f)| **f) {
                 let a = camera.undistort_pixel(&Point2::new(f64::from(c[0]), f64::from(c[1])));
@@ -467,7 +473,7 @@ fn epipolar_pairs(
                 }
             }
             Some((
-                k,
+                (r.i, r.j),
                 EpipolarPair {
                     hand: rm.b,
                     x_i,
@@ -475,7 +481,8 @@ fn epipolar_pairs(
                 },
             ))
         })
-        .collect()
+        .unzip();
+    EpipolarSet { views, pairs }
 }
 
 /// The epipolar refinement's parameters for `camera`: the Huber scale is the essential
@@ -492,34 +499,21 @@ fn epipolar_params(camera: &CameraModel, params: &SelfCalParams) -> EpipolarPara
 /// X on the other pairs' inliers. The replicates are the same estimator as the X they judge
 /// (a pose-solve jackknife would judge the pose solve, whose mono translation is far weaker).
 fn jackknife_epipolar(
-    camera: &CameraModel,
-    params: &SelfCalParams,
-    matches: &[PairMatches],
-    reports: &[PairReport],
-    motions: &[RelativeMotion],
-    solution: &HandEyeSolution,
+    set: &EpipolarSet,
+    ep: &EpipolarParams,
+    x: &Isometry3<f64>,
 ) -> Option<nalgebra::Matrix6<f64>> {
-    let pairs = epipolar_pairs(camera, matches, reports, motions);
-    let ep = epipolar_params(camera, params);
-    let views = distinct_views(
-        pairs
-            .iter()
-            .filter_map(|(k, _)| reports.get(*k))
-            .map(|r| (r.i, r.j)),
-    );
-    let x = solution.tool0_from_camera;
-    uncertainty::jackknife_over_views(views.len(), &x, |k| {
+    let views = distinct_views(set.views.iter().copied());
+    uncertainty::jackknife_over_views(views.len(), x, |k| {
         let left_out = *views.get(k)?;
-        let subset: Vec<EpipolarPair> = pairs
+        let subset: Vec<EpipolarPair> = set
+            .views
             .iter()
-            .filter(|(p, _)| {
-                reports
-                    .get(*p)
-                    .is_some_and(|r| r.i != left_out && r.j != left_out)
-            })
+            .zip(&set.pairs)
+            .filter(|((i, j), _)| *i != left_out && *j != left_out)
             .map(|(_, e)| e.clone())
             .collect();
-        refine_epipolar(&subset, &x, &ep).map(|r| r.tool0_from_camera)
+        refine_epipolar(&subset, x, ep).map(|r| r.tool0_from_camera)
     })
 }
 
@@ -527,24 +521,17 @@ fn jackknife_epipolar(
 /// ([`hand_error_covariance`] over the used pairs' inliers, seeded by the RANSAC seed);
 /// `None` when a replicate's refinement fails.
 fn epipolar_hand_error(
-    camera: &CameraModel,
+    set: &EpipolarSet,
+    ep: &EpipolarParams,
     params: &SelfCalParams,
-    matches: &[PairMatches],
-    reports: &[PairReport],
-    motions: &[RelativeMotion],
     x: &Isometry3<f64>,
 ) -> Option<Matrix6<f64>> {
-    let (views, pairs): (Vec<(usize, usize)>, Vec<EpipolarPair>) =
-        epipolar_pairs(camera, matches, reports, motions)
-            .into_iter()
-            .filter_map(|(k, p)| reports.get(k).map(|r| ((r.i, r.j), p)))
-            .unzip();
     let e = params.view_hand_error;
     hand_error_covariance(
-        &pairs,
-        &views,
+        &set.pairs,
+        &set.views,
         x,
-        &epipolar_params(camera, params),
+        ep,
         e.rot_deg.to_radians(),
         e.trans_mm * 1e-3,
         params.seed,
@@ -556,20 +543,14 @@ fn epipolar_hand_error(
 /// Its 1-sigma replaces the pair-scatter uncertainty. `false` (X left as it was) when the
 /// refinement cannot run.
 fn refine_mono_epipolar(
-    camera: &CameraModel,
-    params: &SelfCalParams,
-    matches: &[PairMatches],
+    set: &EpipolarSet,
+    ep: &EpipolarParams,
     reports: &[PairReport],
     motions: &mut [RelativeMotion],
     solution: &mut HandEyeSolution,
 ) -> bool {
     let used = used_indices(reports);
-    let pairs: Vec<EpipolarPair> = epipolar_pairs(camera, matches, reports, motions)
-        .into_iter()
-        .map(|(_, p)| p)
-        .collect();
-    let ep = epipolar_params(camera, params);
-    let Some(rep) = refine_epipolar(&pairs, &solution.tool0_from_camera, &ep) else {
+    let Some(rep) = refine_epipolar(&set.pairs, &solution.tool0_from_camera, ep) else {
         return false;
     };
     let x = rep.tool0_from_camera;
@@ -739,8 +720,10 @@ fn solve_pair_motions(
     }
 
     let opts = handeye_options(params);
-    let mut epipolar = false;
     let mut before_epipolar = None;
+    // Mono with the epipolar refinement: its pairs, for its uncertainty too.
+    let mut epipolar_set = None;
+    let ep = epipolar_params(camera, params);
     let (mut solution, linear, eq15) = match mode {
         Mode::Rgbd => {
             let inputs = TrackInputs {
@@ -755,37 +738,37 @@ fn solve_pair_motions(
         Mode::Mono => {
             let (mut sol, linear, eq15) = solve_mono(&mut reports, &mut motions, &opts, params)?;
             let pose_x = sol.tool0_from_camera;
-            epipolar = params.steps.epipolar_refinement
-                && refine_mono_epipolar(camera, params, &matches, &reports, &mut motions, &mut sol);
-            if epipolar {
-                before_epipolar = Some(pose_x);
+            if params.steps.epipolar_refinement {
+                let set = epipolar_pairs(camera, &matches, &reports, &motions);
+                if refine_mono_epipolar(&set, &ep, &reports, &mut motions, &mut sol) {
+                    epipolar_set = Some(set);
+                    before_epipolar = Some(pose_x);
+                }
             }
             (sol, linear, eq15)
         }
     };
 
     solution.views = views.len();
-    if !epipolar {
+    if epipolar_set.is_none() {
         // (The epipolar refinement sets the uncertainty of its own estimate.)
         reestimate_uncertainty(&reports, &motions, mode, &opts, &mut solution);
     }
     // Over views, when there are enough: the spread a view's own error makes
     // (`uncertainty::jackknife_over_views`), in place of either linearised figure.
     let final_round = check != Check::FirstRound;
-    let jackknife = || {
-        if epipolar {
-            jackknife_epipolar(camera, params, &matches, &reports, &motions, &solution)
-        } else {
-            jackknife_over_views(&reports, &motions, mode, &opts, &solution)
-        }
+    let x = solution.tool0_from_camera;
+    let jackknife = || match &epipolar_set {
+        Some(set) => jackknife_epipolar(set, &ep, &x),
+        None => jackknife_over_views(&reports, &motions, mode, &opts, &solution),
     };
     // Mono: the hand error from view to view, which the epipolar X follows and no resampling
     // of the views shows (`epipolar::hand_error_covariance`). Its replicates refine the same
     // pairs the estimate was refined on, so it fails only where that refinement would.
-    let x = solution.tool0_from_camera;
-    let view_hand = (final_round && epipolar)
-        .then(|| epipolar_hand_error(camera, params, &matches, &reports, &motions, &x))
-        .flatten();
+    let view_hand = epipolar_set
+        .as_ref()
+        .filter(|_| final_round)
+        .and_then(|set| epipolar_hand_error(set, &ep, params, &x));
     if let Some(mut cov) = final_round.then(jackknife).flatten() {
         if let Some(hand) = view_hand {
             cov += hand;
