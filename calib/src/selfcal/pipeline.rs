@@ -506,9 +506,10 @@ fn epipolar_params(camera: &CameraModel, params: &SelfCalParams) -> EpipolarPara
 /// translation: there the pose solve is the weak one (its per-pair scales absorb the
 /// translation; on calib-18 it sits 6.5 mm from the epipolar X, which is 1.1 mm off with a
 /// jackknife of 1.2 mm). The disagreement is the hand error's trace, so with the hand error
-/// propagated it would count it twice: over 100 rendered noise trials (279 mono answers at
-/// sigma 0.05-0.15) the rotation held its 95 % ellipsoid in 98.9 % with both, mean squared
-/// distance 1.84 against chi-square(3)'s 3; with the propagation alone 95.0 % and 2.75.
+/// propagated it would count it twice. Over 100 rendered noise trials at sigma 0.05-0.15
+/// (`rodlog experiment noise`'s), with both the mono rotation held its 95 % ellipsoid in
+/// 98.9 % of 279 answers, mean squared distance 1.84 against chi-square(3)'s 3, and 21 were
+/// refused on their sigma; with the propagation alone all 300 answer, 95.0 % held, mean 2.78.
 fn over_views_covariance(
     jackknife: Matrix6<f64>,
     view_hand: Option<Matrix6<f64>>,
