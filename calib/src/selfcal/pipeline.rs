@@ -1143,15 +1143,18 @@ mod tests {
     fn the_propagated_hand_error_replaces_the_disagreement() {
         let jackknife = Matrix6::from_diagonal_element(1e-6);
         let hand = Matrix6::from_diagonal_element(4e-6);
-        let d = Vector3::new(3e-3, 0.0, 0.0);
+        let d = Vector3::new(3e-3, -1e-3, 2e-3);
         assert_eq!(
             over_views_covariance(jackknife, Some(hand), Some(d)),
             jackknife + hand
         );
         let with_d = over_views_covariance(jackknife, None, Some(d));
         let mut expected = jackknife;
-        expected[(0, 0)] += 9e-6;
+        expected
+            .fixed_view_mut::<3, 3>(0, 0)
+            .copy_from(&(jackknife.fixed_view::<3, 3>(0, 0) + d * d.transpose()));
         assert_eq!(with_d, expected);
+        assert_eq!(with_d[(0, 1)], -3e-6);
         assert_eq!(over_views_covariance(jackknife, None, None), jackknife);
     }
 
