@@ -358,14 +358,7 @@ mod tests {
 
     #[test]
     fn a_carried_mount_comes_whole_or_not_at_all() {
-        let read = |sets: &[&str]| {
-            let mut params = scenario::Params::default();
-            for s in sets {
-                params.set_from_arg(s).expect("key=value");
-            }
-            let mut r = scenario::Reader::new(&params);
-            crate::selfcal::CalibrationStageConfig::from_params(&mut r, 0)
-        };
+        let read = crate::selfcal::CalibrationStageConfig::from_settings;
         let nominal = read(&[]).expect("defaults");
         assert_eq!(
             nominal.nominal_tool0_from_camera,

@@ -21,6 +21,7 @@
 
 use nalgebra::{Isometry3, Matrix6, Point2, Translation3, UnitQuaternion, Vector3, Vector6};
 use rayon::prelude::*;
+use std::sync::Arc;
 
 use crate::relpose::essential::essential_of;
 use crate::relpose::refine::sampson_distance;
@@ -30,10 +31,11 @@ use crate::relpose::refine::sampson_distance;
 pub struct EpipolarPair {
     /// `B = tool_i_from_tool_j` (metric).
     pub hand: Isometry3<f64>,
-    /// Normalised undistorted points in view `i`.
-    pub x_i: Vec<Point2<f64>>,
+    /// Normalised undistorted points in view `i` (shared: the jackknife's subsets and the
+    /// hand-error replicates copy the pair, not its points).
+    pub x_i: Arc<[Point2<f64>]>,
     /// The same points in view `j`.
-    pub x_j: Vec<Point2<f64>>,
+    pub x_j: Arc<[Point2<f64>]>,
 }
 
 /// Parameters of [`refine_epipolar`].
@@ -102,7 +104,7 @@ fn residuals(pairs: &[EpipolarPair], x: &Isometry3<f64>, out: &mut Vec<f64>) {
         out.extend(
             p.x_i
                 .iter()
-                .zip(&p.x_j)
+                .zip(p.x_j.iter())
                 .map(|(xi, xj)| sampson_distance(&e, xi, xj).unwrap_or(0.0)),
         );
     }
@@ -289,14 +291,17 @@ pub fn hand_error_covariance(
             UnitQuaternion::from_scaled_axis(Vector3::new(n(0), n(1), n(2)) * sigma_rot_rad),
         )
     };
+    let n_views = views.iter().map(|&(i, j)| i.max(j) + 1).max().unwrap_or(0);
     let replicates: Vec<Option<Vector6<f64>>> = (0..HAND_ERROR_REPLICATES)
         .into_par_iter()
         .map(|r| {
+            // Each view's error once per replicate (a view is in many pairs).
+            let errors: Vec<Isometry3<f64>> = (0..n_views).map(|v| flange_error(r, v)).collect();
             let perturbed: Vec<EpipolarPair> = pairs
                 .iter()
                 .zip(views)
                 .map(|(p, &(i, j))| EpipolarPair {
-                    hand: flange_error(r, i).inverse() * p.hand * flange_error(r, j),
+                    hand: errors[i].inverse() * p.hand * errors[j],
                     ..p.clone()
                 })
                 .collect();
@@ -359,7 +364,11 @@ mod tests {
                         x_i.push(Point2::new(p_i.x / p_i.z, p_i.y / p_i.z));
                     }
                 }
-                EpipolarPair { hand: *b, x_i, x_j }
+                EpipolarPair {
+                    hand: *b,
+                    x_i: x_i.into(),
+                    x_j: x_j.into(),
+                }
             })
             .collect();
         let start = x * iso([1.0, 1.0, 1.0], 2.0, [0.02, 0.0, -0.01]);
@@ -427,7 +436,11 @@ mod tests {
                         }
                     }
                     let hand = measured[i].inverse() * measured[j];
-                    pairs.push(EpipolarPair { hand, x_i, x_j });
+                    pairs.push(EpipolarPair {
+                        hand,
+                        x_i: x_i.into(),
+                        x_j: x_j.into(),
+                    });
                     ij.push((i, j));
                 }
             }

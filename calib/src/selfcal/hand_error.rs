@@ -104,14 +104,7 @@ mod tests {
     /// nominal figures; a negative one is refused with its key.
     #[test]
     fn the_stage_reads_both_hand_errors() {
-        let read = |sets: &[&str]| {
-            let mut params = scenario::Params::default();
-            for s in sets {
-                params.set_from_arg(s).expect("key=value");
-            }
-            let mut r = scenario::Reader::new(&params);
-            crate::selfcal::CalibrationStageConfig::from_params(&mut r, 0)
-        };
+        let read = crate::selfcal::CalibrationStageConfig::from_settings;
         let d = read(&[]).expect("defaults");
         assert_eq!(d.shared_hand_error, SharedHandError::AUBO_I10_NOMINAL);
         assert_eq!(d.view_hand_error, ViewHandError::AUBO_I10_NOMINAL);

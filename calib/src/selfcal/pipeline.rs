@@ -476,8 +476,8 @@ fn epipolar_pairs(
                 (r.i, r.j),
                 EpipolarPair {
                     hand: rm.b,
-                    x_i,
-                    x_j,
+                    x_i: x_i.into(),
+                    x_j: x_j.into(),
                 },
             ))
         })

@@ -209,6 +209,16 @@ impl Default for CalibrationStageConfig {
 }
 
 impl CalibrationStageConfig {
+    /// The configuration read from `key=value` settings (tests of the stage's parameters).
+    #[cfg(test)]
+    pub(crate) fn from_settings(sets: &[&str]) -> Result<Self, scenario::ParamError> {
+        let mut params = scenario::Params::default();
+        for s in sets {
+            params.set_from_arg(s).expect("key=value");
+        }
+        Self::from_params(&mut scenario::Reader::new(&params), 0)
+    }
+
     /// Reads `calibration.*` through `r`. `scripted_captures` is the scenario's number of
     /// `capture` commands: `calibration.captures` (captures after which the stage
     /// self-calibrates; 0 = never, it then only publishes the camera edge) defaults to it when
